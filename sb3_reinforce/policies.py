@@ -1,0 +1,194 @@
+"""
+Policies for REINFORCE: SB3's ``ActorCriticPolicy`` whose value head is optional.
+
+REINFORCE without a baseline needs only the actor; building and running a critic it never uses would cost
+memory and compute at every step. With ``value_head=False`` no value network exists and the policy's value
+estimate is the constant baseline ``b(s) = 0`` that plain REINFORCE uses.
+"""
+
+from typing import Any
+
+import torch as th
+from gymnasium import spaces
+from stable_baselines3.common.policies import ActorCriticPolicy
+from stable_baselines3.common.torch_layers import BaseFeaturesExtractor, CombinedExtractor, NatureCNN
+from stable_baselines3.common.type_aliases import PyTorchObs, Schedule
+from torch import nn
+
+__all__ = ["CnnPolicy", "MlpPolicy", "MultiInputPolicy", "ReinforceCnnPolicy", "ReinforceMultiInputPolicy", "ReinforcePolicy"]
+
+
+def xavier_init_(module: nn.Module) -> None:
+    """
+    Glorot-uniform initialization of every weight *and bias*, as the seed's TF1 ``xavier_initializer``
+    (a bias of ``n`` units is initialized as an ``(n, 1)`` matrix: ``U(-sqrt(6 / (n + 1)), sqrt(6 / (n + 1)))``).
+    """
+    for layer in module.modules():
+        if isinstance(layer, (nn.Linear, nn.Conv2d)):
+            nn.init.xavier_uniform_(layer.weight)
+            if layer.bias is not None:
+                with th.no_grad():
+                    nn.init.xavier_uniform_(layer.bias.view(-1, 1))
+
+
+class ReinforcePolicy(ActorCriticPolicy):
+    """
+    Policy class for REINFORCE (actor, plus a critic used as baseline when ``value_head=True``).
+
+    Takes every argument of :class:`stable_baselines3.common.policies.ActorCriticPolicy`, plus:
+
+    :param observation_space: Observation space
+    :param action_space: Action space
+    :param lr_schedule: Learning rate schedule (could be constant)
+    :param net_arch: The specification of the policy and value networks. Without a value head, a list gives
+        the actor's hidden layers and ``vf`` of a dict is ignored. Default: 64-64 (none for ``NatureCNN``).
+    :param value_head: Whether to build a value network ``V(s)`` (REINFORCE with baseline). Set by the
+        algorithm from its ``baseline`` argument.
+    :param xavier_init: Initialize all weights and biases Glorot-uniform, as the seed did, instead of
+        SB3's orthogonal initialization (``ortho_init`` is then ignored).
+    :param kwargs: Passed on to ``ActorCriticPolicy`` (``activation_fn``, ``ortho_init``, ``use_sde``,
+        ``log_std_init``, ``features_extractor_class``, ``optimizer_class``, ``optimizer_kwargs``, ...)
+    """
+
+    def __init__(
+        self,
+        observation_space: spaces.Space,
+        action_space: spaces.Space,
+        lr_schedule: Schedule,
+        net_arch: list[int] | dict[str, list[int]] | None = None,
+        value_head: bool = True,
+        xavier_init: bool = False,
+        **kwargs: Any,
+    ):
+        self.value_head = value_head
+        self.xavier_init = xavier_init
+        if not value_head:
+            if net_arch is None:
+                net_arch = [] if kwargs.get("features_extractor_class") == NatureCNN else [64, 64]
+            pi_arch = net_arch.get("pi", []) if isinstance(net_arch, dict) else list(net_arch)
+            net_arch = dict(pi=pi_arch, vf=[])
+            # A separate critic feature extractor would never be used.
+            kwargs["share_features_extractor"] = True
+        super().__init__(observation_space, action_space, lr_schedule, net_arch=net_arch, **kwargs)
+
+    def _build(self, lr_schedule: Schedule) -> None:
+        super()._build(lr_schedule)
+        if not self.value_head:
+            del self.value_net
+        if self.xavier_init:
+            xavier_init_(self)
+        if not self.value_head or self.xavier_init:
+            # Parameters changed after SB3 created the optimizer: create it again.
+            self.optimizer = self.optimizer_class(self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)  # type: ignore[call-arg]
+
+    def _get_constructor_parameters(self) -> dict[str, Any]:
+        data = super()._get_constructor_parameters()
+        data.update(value_head=self.value_head, xavier_init=self.xavier_init)
+        if not self.value_head:
+            data.pop("share_features_extractor", None)
+        return data
+
+    def _zero_values(self, like: th.Tensor) -> th.Tensor:
+        return th.zeros((like.shape[0], 1), device=like.device, dtype=th.float32)
+
+    def forward(self, obs: th.Tensor, deterministic: bool = False) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
+        """
+        Forward pass in the actor (and the critic, if there is one).
+
+        :param obs: Observation
+        :param deterministic: Whether to sample or use deterministic actions
+        :return: action, value (zeros without a value head: the baseline b(s) = 0) and log probability
+        """
+        if self.value_head:
+            return super().forward(obs, deterministic)
+        distribution = self.get_distribution(obs)
+        actions = distribution.get_actions(deterministic=deterministic)
+        log_prob = distribution.log_prob(actions)
+        actions = actions.reshape((-1, *self.action_space.shape))  # type: ignore[misc]
+        return actions, self._zero_values(log_prob), log_prob
+
+    def evaluate_actions(self, obs: PyTorchObs, actions: th.Tensor) -> tuple[th.Tensor, th.Tensor, th.Tensor | None]:
+        """
+        Evaluate actions according to the current policy, given the observations.
+
+        :param obs: Observation
+        :param actions: Actions
+        :return: estimated value (zeros without a value head), log likelihood of the actions, entropy
+        """
+        if self.value_head:
+            return super().evaluate_actions(obs, actions)
+        distribution = self.get_distribution(obs)
+        log_prob = distribution.log_prob(actions)
+        return self._zero_values(log_prob), log_prob, distribution.entropy()
+
+    def predict_values(self, obs: PyTorchObs) -> th.Tensor:
+        """
+        Get the estimated values given the observations.
+
+        :param obs: Observation
+        :return: V(s), or zeros (the baseline of plain REINFORCE) when there is no value head
+        """
+        if self.value_head:
+            return super().predict_values(obs)
+        return self._zero_values(next(iter(obs.values())) if isinstance(obs, dict) else obs)
+
+
+class ReinforceCnnPolicy(ReinforcePolicy):
+    """
+    CNN policy for REINFORCE (``NatureCNN`` features), see :class:`ReinforcePolicy` for the parameters.
+    """
+
+    def __init__(
+        self,
+        observation_space: spaces.Space,
+        action_space: spaces.Space,
+        lr_schedule: Schedule,
+        net_arch: list[int] | dict[str, list[int]] | None = None,
+        value_head: bool = True,
+        xavier_init: bool = False,
+        features_extractor_class: type[BaseFeaturesExtractor] = NatureCNN,
+        **kwargs: Any,
+    ):
+        super().__init__(
+            observation_space,
+            action_space,
+            lr_schedule,
+            net_arch=net_arch,
+            value_head=value_head,
+            xavier_init=xavier_init,
+            features_extractor_class=features_extractor_class,
+            **kwargs,
+        )
+
+
+class ReinforceMultiInputPolicy(ReinforcePolicy):
+    """
+    Policy for ``Dict`` observation spaces (``CombinedExtractor`` features), see :class:`ReinforcePolicy`.
+    """
+
+    def __init__(
+        self,
+        observation_space: spaces.Dict,
+        action_space: spaces.Space,
+        lr_schedule: Schedule,
+        net_arch: list[int] | dict[str, list[int]] | None = None,
+        value_head: bool = True,
+        xavier_init: bool = False,
+        features_extractor_class: type[BaseFeaturesExtractor] = CombinedExtractor,
+        **kwargs: Any,
+    ):
+        super().__init__(
+            observation_space,
+            action_space,
+            lr_schedule,
+            net_arch=net_arch,
+            value_head=value_head,
+            xavier_init=xavier_init,
+            features_extractor_class=features_extractor_class,
+            **kwargs,
+        )
+
+
+MlpPolicy = ReinforcePolicy
+CnnPolicy = ReinforceCnnPolicy
+MultiInputPolicy = ReinforceMultiInputPolicy

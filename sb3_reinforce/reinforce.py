@@ -1,0 +1,396 @@
+from typing import Any, ClassVar, TypeVar
+
+import numpy as np
+import torch as th
+from gymnasium import spaces
+from stable_baselines3.common.buffers import RolloutBuffer
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+from stable_baselines3.common.policies import BasePolicy
+from stable_baselines3.common.type_aliases import GymEnv, MaybeCallback, Schedule
+from stable_baselines3.common.utils import explained_variance, obs_as_tensor
+from stable_baselines3.common.vec_env import VecEnv
+from torch.nn import functional as F
+
+from sb3_reinforce.buffers import DictEpisodeRolloutBuffer, EpisodeRolloutBuffer
+from sb3_reinforce.policies import CnnPolicy, MlpPolicy, MultiInputPolicy, ReinforcePolicy
+from sb3_reinforce.returns import normalize_returns
+from sb3_reinforce.validation import validate_hyperparameters
+
+SelfREINFORCE = TypeVar("SelfREINFORCE", bound="REINFORCE")
+
+
+class NonFiniteError(FloatingPointError):
+    """An environment returned a NaN/inf reward or observation, or the loss/gradient became non-finite."""
+
+
+class REINFORCE(OnPolicyAlgorithm):
+    """
+    REINFORCE: Monte-Carlo policy gradient (Williams, 1992), optionally with a learned value baseline.
+
+    Paper: https://link.springer.com/article/10.1007/BF00992696
+    Introduction: https://spinningup.openai.com/en/latest/spinningup/rl_intro3.html
+
+    The policy plays whole episodes, then takes one gradient step on
+    ``mean_t(-log pi(a_t|s_t) * A_t)``, where ``A_t`` is the discounted reward-to-go ``G_t``
+    (standardized over the batch by default), or ``G_t - V(s_t)`` with ``baseline="value"``.
+    A rollout always ends on episode boundaries; see :class:`~sb3_reinforce.buffers.EpisodeRolloutBuffer`
+    for what happens to episodes still running in other environments when the batch is full.
+
+    The estimator is unbiased but has high variance: standardizing the returns and a value baseline reduce
+    it without adding bias (a baseline ``b(s)`` does not change the expected gradient). Truncated episodes
+    (time limits) are bootstrapped with ``gamma * V(s_T)`` when there is a value baseline, and are treated
+    as terminal otherwise (no estimate of the future exists).
+
+    :param policy: The policy model to use (MlpPolicy, CnnPolicy, MultiInputPolicy, or a class)
+    :param env: The environment to learn from (if registered in Gym, can be str)
+    :param learning_rate: The learning rate, it can be a function of the current progress remaining (from 1 to 0)
+    :param n_episodes: Minimum number of whole episodes per gradient step (the seed used 1). With
+        ``n_envs > 1`` several episodes may end at the same step, so a batch can hold more.
+    :param min_steps: Minimum number of environment steps per gradient step: episodes are added to the batch
+        until both ``n_episodes`` and ``min_steps`` are reached (0: count episodes only)
+    :param gamma: Discount factor, in [0, 1]
+    :param baseline: ``None`` for plain REINFORCE (no value network is built), or ``"value"`` for REINFORCE
+        with a learned state-value baseline ``V(s)`` trained by regression on the returns
+    :param normalize_returns: Standardize the policy-gradient weights over the batch (returns without a
+        baseline, advantages ``G_t - V(s_t)`` with one). A batch of equal returns gives zero weights, never NaN.
+    :param ent_coef: Entropy coefficient for the loss calculation
+    :param vf_coef: Value function coefficient for the loss calculation (used only with ``baseline="value"``)
+    :param max_grad_norm: The maximum value for the gradient clipping, or None for no clipping
+    :param use_sde: Whether to use generalized State Dependent Exploration (gSDE)
+        instead of action noise exploration (default: False)
+    :param sde_sample_freq: Sample a new noise matrix every n steps when using gSDE
+        Default: -1 (only sample at the beginning of the rollout)
+    :param max_rollout_steps: Most transitions the rollout buffer may hold (all environments together).
+        An environment that has not ended enough episodes by then raises ``RolloutLimitError`` instead of
+        exhausting memory: give it a time limit, or raise this cap (memory is about this many observations).
+    :param rollout_buffer_class: Rollout buffer class to use. If ``None``, it will be automatically selected.
+    :param rollout_buffer_kwargs: Keyword arguments to pass to the rollout buffer on creation.
+    :param stats_window_size: Window size for the rollout logging, specifying the number of episodes to average
+        the reported success rate, mean episode length, and mean reward over
+    :param tensorboard_log: the log location for tensorboard (if None, no logging)
+    :param policy_kwargs: additional arguments to be passed to the policy on creation. See
+        :class:`~sb3_reinforce.policies.ReinforcePolicy` (``net_arch``, ``activation_fn``, ``xavier_init``, ...)
+    :param verbose: Verbosity level: 0 for no output, 1 for info messages (such as device or wrappers used), 2 for
+        debug messages
+    :param seed: Seed for the pseudo random generators
+    :param device: Device (cpu, cuda, ...) on which the code should be run.
+        Setting it to auto, the code will be run on the GPU if possible.
+    :param _init_setup_model: Whether or not to build the network at the creation of the instance
+    """
+
+    policy_aliases: ClassVar[dict[str, type[BasePolicy]]] = {
+        "MlpPolicy": MlpPolicy,
+        "CnnPolicy": CnnPolicy,
+        "MultiInputPolicy": MultiInputPolicy,
+    }
+    rollout_buffer: EpisodeRolloutBuffer  # type: ignore[assignment]
+
+    def __init__(
+        self,
+        policy: str | type[ReinforcePolicy],
+        env: GymEnv | str,
+        learning_rate: float | Schedule = 1e-3,
+        n_episodes: int = 1,
+        min_steps: int = 0,
+        gamma: float = 0.99,
+        baseline: str | None = None,
+        normalize_returns: bool = True,
+        ent_coef: float = 0.0,
+        vf_coef: float = 0.5,
+        max_grad_norm: float | None = 0.5,
+        use_sde: bool = False,
+        sde_sample_freq: int = -1,
+        max_rollout_steps: int = 1_000_000,
+        rollout_buffer_class: type[EpisodeRolloutBuffer] | None = None,
+        rollout_buffer_kwargs: dict[str, Any] | None = None,
+        stats_window_size: int = 100,
+        tensorboard_log: str | None = None,
+        policy_kwargs: dict[str, Any] | None = None,
+        verbose: int = 0,
+        seed: int | None = None,
+        device: th.device | str = "auto",
+        _init_setup_model: bool = True,
+    ):
+        validate_hyperparameters(
+            learning_rate=learning_rate,
+            n_episodes=n_episodes,
+            min_steps=min_steps,
+            gamma=gamma,
+            baseline=baseline,
+            normalize_returns=normalize_returns,
+            ent_coef=ent_coef,
+            vf_coef=vf_coef,
+            max_grad_norm=max_grad_norm,
+            max_rollout_steps=max_rollout_steps,
+        )
+        if policy_kwargs is not None and "value_head" in policy_kwargs:
+            raise ValueError("Do not set `value_head` in policy_kwargs: use REINFORCE(baseline='value') or baseline=None")
+        super().__init__(
+            policy,
+            env,
+            learning_rate=learning_rate,
+            n_steps=1,  # unused: REINFORCE's rollouts end on episode boundaries (n_episodes, min_steps)
+            gamma=gamma,
+            gae_lambda=1.0,  # Monte-Carlo returns
+            ent_coef=ent_coef,
+            vf_coef=vf_coef,
+            max_grad_norm=max_grad_norm,  # type: ignore[arg-type]
+            use_sde=use_sde,
+            sde_sample_freq=sde_sample_freq,
+            rollout_buffer_class=rollout_buffer_class,  # type: ignore[arg-type]
+            rollout_buffer_kwargs=rollout_buffer_kwargs,
+            stats_window_size=stats_window_size,
+            tensorboard_log=tensorboard_log,
+            policy_kwargs=policy_kwargs,
+            verbose=verbose,
+            device=device,
+            seed=seed,
+            _init_setup_model=False,
+            supported_action_spaces=(spaces.Box, spaces.Discrete, spaces.MultiDiscrete, spaces.MultiBinary),
+        )
+        self.n_episodes = n_episodes
+        self.min_steps = min_steps
+        self.baseline = baseline
+        self.normalize_returns = normalize_returns
+        self.max_rollout_steps = max_rollout_steps
+
+        if _init_setup_model:
+            self._setup_model()
+
+    def _setup_model(self) -> None:
+        self._setup_lr_schedule()
+        self.set_random_seed(self.seed)
+
+        if self.rollout_buffer_class is None:
+            is_dict = isinstance(self.observation_space, spaces.Dict)
+            self.rollout_buffer_class = DictEpisodeRolloutBuffer if is_dict else EpisodeRolloutBuffer  # type: ignore[assignment]
+        buffer_class: type[EpisodeRolloutBuffer] = self.rollout_buffer_class  # type: ignore[assignment]
+        buffer_kwargs = dict(self.rollout_buffer_kwargs)
+        self.rollout_buffer = buffer_class(
+            buffer_kwargs.pop("buffer_size", 256),
+            self.observation_space,
+            self.action_space,
+            device=self.device,
+            gamma=self.gamma,
+            n_envs=self.n_envs,
+            n_episodes=self.n_episodes,
+            min_steps=self.min_steps,
+            max_steps=self.max_rollout_steps,
+            **buffer_kwargs,
+        )
+        policy_kwargs = dict(self.policy_kwargs)
+        if issubclass(self.policy_class, ReinforcePolicy):
+            policy_kwargs["value_head"] = self.baseline == "value"
+        self.policy = self.policy_class(  # type: ignore[assignment]
+            self.observation_space, self.action_space, self.lr_schedule, use_sde=self.use_sde, **policy_kwargs
+        )
+        self.policy = self.policy.to(self.device)
+        self._maybe_recommend_cpu("ReinforcePolicy")
+
+    def _setup_learn(
+        self,
+        total_timesteps: int,
+        callback: MaybeCallback = None,
+        reset_num_timesteps: bool = True,
+        tb_log_name: str = "run",
+        progress_bar: bool = False,
+    ) -> tuple[int, BaseCallback]:
+        env_will_reset = reset_num_timesteps or self._last_obs is None
+        result = super()._setup_learn(total_timesteps, callback, reset_num_timesteps, tb_log_name, progress_bar)
+        if env_will_reset:
+            # Running episodes belong to the environment state that the reset discards.
+            self.rollout_buffer.reset()
+        return result
+
+    def _check_finite(self, new_obs: Any, rewards: np.ndarray) -> None:
+        if not np.isfinite(rewards).all():
+            env_idx = int(np.flatnonzero(~np.isfinite(rewards))[0])
+            raise NonFiniteError(
+                f"Environment {env_idx} returned a non-finite reward ({rewards[env_idx]}) at timestep {self.num_timesteps}: "
+                "REINFORCE cannot learn from it (check the environment's reward, or wrap it to clip rewards)."
+            )
+        for key, obs in new_obs.items() if isinstance(new_obs, dict) else [(None, new_obs)]:
+            if np.issubdtype(obs.dtype, np.floating) and not np.isfinite(obs).all():
+                env_idx = int(np.flatnonzero(~np.isfinite(obs.reshape(len(obs), -1)).all(axis=1))[0])
+                where = f" (key {key!r})" if key is not None else ""
+                raise NonFiniteError(
+                    f"Environment {env_idx} returned a non-finite observation{where} at timestep {self.num_timesteps}: "
+                    f"{obs[env_idx]}. REINFORCE cannot learn from it "
+                    "(check the environment, or use VecCheckNan to find the cause)."
+                )
+
+    def _bootstrap_truncated(self, rewards: np.ndarray, dones: np.ndarray, infos: list[dict[str, Any]]) -> np.ndarray:
+        """
+        With a value baseline, add ``gamma * V(s_T)`` to the last reward of every truncated episode, so that its
+        return estimates what the time limit cut off (as SB3's A2C/PPO do, GH#633). Without one, do nothing:
+        the truncated episode is treated as terminal.
+        """
+        if self.baseline != "value" or not dones.any():
+            return rewards
+        rewards = rewards.astype(np.float64)
+        for idx in np.flatnonzero(dones):
+            if infos[idx].get("TimeLimit.truncated", False) and infos[idx].get("terminal_observation") is not None:
+                terminal_obs = self.policy.obs_to_tensor(infos[idx]["terminal_observation"])[0]
+                with th.no_grad():
+                    terminal_value = self.policy.predict_values(terminal_obs)[0].item()
+                rewards[idx] += self.gamma * terminal_value
+        return rewards
+
+    def collect_rollouts(
+        self,
+        env: VecEnv,
+        callback: BaseCallback,
+        rollout_buffer: RolloutBuffer,
+        n_rollout_steps: int,
+    ) -> bool:
+        """
+        Play the current policy until the buffer holds a batch of whole episodes, then compute their returns.
+
+        Callbacks see the same local variables as with SB3's on-policy algorithms (``new_obs``, ``rewards``,
+        ``dones``, ``infos``, ...). Each transition is stored before ``callback.on_step()``, so stopping from
+        a callback loses no experience: ``learn(..., reset_num_timesteps=False)`` goes on from there.
+
+        :param env: The training environment
+        :param callback: Callback that will be called at each step (and at the beginning and end of the rollout)
+        :param rollout_buffer: An :class:`EpisodeRolloutBuffer`
+        :param n_rollout_steps: Unused: the rollout length is set by ``n_episodes`` and ``min_steps``
+        :return: True if the batch is complete, False if a callback stopped training first.
+        """
+        assert self._last_obs is not None, "No previous observation was provided"
+        assert isinstance(rollout_buffer, EpisodeRolloutBuffer), "REINFORCE needs an EpisodeRolloutBuffer"
+        # Switch to eval mode (this affects batch norm / dropout)
+        self.policy.set_training_mode(False)
+        n_steps = 0
+        if self.use_sde:
+            self.policy.reset_noise(env.num_envs)
+
+        callback.on_rollout_start()
+
+        while not rollout_buffer.is_full:
+            if self.use_sde and self.sde_sample_freq > 0 and n_steps % self.sde_sample_freq == 0:
+                self.policy.reset_noise(env.num_envs)
+
+            with th.no_grad():
+                obs_tensor = obs_as_tensor(self._last_obs, self.device)
+                # Only the actor runs here: log pi(a|s) (and V(s)) are evaluated with gradients in train().
+                actions = self.policy.get_distribution(obs_tensor).get_actions().cpu().numpy()
+            actions = actions.reshape((-1, *self.action_space.shape))
+
+            clipped_actions = actions
+            if isinstance(self.action_space, spaces.Box):
+                if self.policy.squash_output:
+                    clipped_actions = self.policy.unscale_action(clipped_actions)
+                else:
+                    # Clip to the bounds: the Gaussian is unbounded. The unclipped action is stored and trained on.
+                    clipped_actions = np.clip(actions, self.action_space.low, self.action_space.high)
+
+            new_obs, rewards, dones, infos = env.step(clipped_actions)
+            self._check_finite(new_obs, rewards)
+            self.num_timesteps += env.num_envs
+            n_steps += 1
+            self._update_info_buffer(infos, dones)
+            rollout_buffer.add(self._last_obs, actions, self._bootstrap_truncated(rewards, dones, infos), dones)
+            self._last_obs = new_obs
+            self._last_episode_starts = dones
+
+            # Give access to local variables
+            callback.update_locals(locals())
+            if not callback.on_step():
+                return False
+
+        rollout_buffer.compute_returns()
+        callback.update_locals(locals())
+        callback.on_rollout_end()
+        return True
+
+    def train(self) -> None:
+        """
+        One gradient step on the batch of whole episodes in the rollout buffer.
+        """
+        # Switch to train mode (this affects batch norm / dropout)
+        self.policy.set_training_mode(True)
+        self._update_learning_rate(self.policy.optimizer)
+
+        batch = next(self.rollout_buffer.get(batch_size=None))
+        actions = batch.actions
+        if isinstance(self.action_space, spaces.Discrete):
+            # Convert discrete action from float to long
+            actions = actions.long().flatten()
+        values, log_prob, entropy = self.policy.evaluate_actions(batch.observations, actions)
+        values = values.flatten()
+        returns = batch.returns
+
+        # Policy gradient theorem, Monte-Carlo estimate (Williams, 1992), with baseline b(s) = V(s) or 0:
+        #   grad J = E[ sum_t grad log pi(a_t|s_t) * (G_t - b(s_t)) ],   G_t = sum_k gamma^k r_{t+k}
+        # so the loss is  L_pi = -mean_t( log pi(a_t|s_t) * A_t ),  A_t = G_t - b(s_t), standardized if asked.
+        with_baseline = self.baseline == "value"
+        advantages = returns - values.detach() if with_baseline else returns
+        if self.normalize_returns:
+            advantages = normalize_returns(advantages)
+        policy_loss = -(log_prob * advantages).mean()
+
+        # Entropy bonus (approximated by -log pi when there is no analytical form)
+        entropy_loss = -th.mean(-log_prob) if entropy is None else -th.mean(entropy)
+        # The baseline regresses on the returns: L_V = mean_t (G_t - V(s_t))^2
+        value_loss = F.mse_loss(values, returns) if with_baseline else th.zeros((), device=returns.device)
+        loss = policy_loss + self.ent_coef * entropy_loss + self.vf_coef * value_loss
+
+        self.policy.optimizer.zero_grad()
+        loss.backward()
+        max_norm = float("inf") if self.max_grad_norm is None else self.max_grad_norm
+        grad_norm = th.nn.utils.clip_grad_norm_(self.policy.parameters(), max_norm)
+        if not (th.isfinite(loss) and th.isfinite(grad_norm)):
+            self.policy.optimizer.zero_grad()
+            raise NonFiniteError(
+                f"Non-finite loss ({loss.item()}) or gradient norm ({grad_norm.item()}) at timestep {self.num_timesteps}: "
+                "the update was skipped and the weights are unchanged. Lower the learning rate, normalize the returns "
+                "(normalize_returns=True) or scale the rewards (VecNormalize)."
+            )
+        self.policy.optimizer.step()
+
+        self._n_updates += 1
+        self.logger.record("train/n_updates", self._n_updates, exclude="tensorboard")
+        self.logger.record("train/n_episodes", len(self.rollout_buffer.episode_lengths))
+        self.logger.record("train/batch_steps", self.rollout_buffer.batch_size)
+        self.logger.record("train/policy_loss", policy_loss.item())
+        self.logger.record("train/entropy_loss", entropy_loss.item())
+        self.logger.record("train/loss", loss.item())
+        self.logger.record("train/grad_norm", grad_norm.item())
+        if with_baseline:
+            self.logger.record("train/value_loss", value_loss.item())
+            self.logger.record(
+                "train/explained_variance", explained_variance(values.detach().cpu().numpy(), returns.cpu().numpy())
+            )
+        if hasattr(self.policy, "log_std"):
+            self.logger.record("train/std", th.exp(self.policy.log_std).mean().item())
+
+    def learn(
+        self: SelfREINFORCE,
+        total_timesteps: int,
+        callback: MaybeCallback = None,
+        log_interval: int = 10,
+        tb_log_name: str = "REINFORCE",
+        reset_num_timesteps: bool = True,
+        progress_bar: bool = False,
+    ) -> SelfREINFORCE:
+        """
+        Train for at least ``total_timesteps`` environment steps (all environments counted). The last batch
+        finishes its episodes, so training may run a little past ``total_timesteps``.
+
+        :param total_timesteps: The total number of environment steps to train on
+        :param callback: callback(s) called at every step with state of the algorithm.
+        :param log_interval: Log every ``log_interval`` gradient steps (batches)
+        :param tb_log_name: the name of the run for TensorBoard logging
+        :param reset_num_timesteps: whether or not to reset the current timestep number (used in logging)
+        :param progress_bar: Display a progress bar using tqdm and rich.
+        :return: the trained model
+        """
+        return super().learn(
+            total_timesteps=total_timesteps,
+            callback=callback,
+            log_interval=log_interval,
+            tb_log_name=tb_log_name,
+            reset_num_timesteps=reset_num_timesteps,
+            progress_bar=progress_bar,
+        )

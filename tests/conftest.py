@@ -1,0 +1,14 @@
+import os
+
+import pytest
+import torch as th
+
+# Two cores in CI: keep torch from oversubscribing them when pytest-xdist runs workers side by side.
+th.set_num_threads(1)
+os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+
+
+@pytest.fixture(autouse=True)
+def _no_cuda(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The suite is meant for the CPU: same numbers everywhere.
+    monkeypatch.setenv("CUDA_VISIBLE_DEVICES", "")
