@@ -7,7 +7,6 @@ import os
 import shutil
 import subprocess
 import sys
-import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +21,11 @@ from stable_baselines3.common.env_util import make_vec_env
 from sb3_reinforce import REINFORCE, seed_hyperparams
 from sb3_reinforce.zoo import config_path, main
 from sb3_reinforce.zoo.hyperparams_opt import convert_reinforce_params, sample_reinforce_params, suggest_n_envs
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pytest depends on tomli before Python 3.11
+    import tomli as tomllib
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIGS = {name: REPO / "zoo_configs" / f"{name}.yml" for name in ("reinforce", "reinforce_seed")}
@@ -186,7 +190,7 @@ def test_sampler_gives_valid_reinforce_arguments() -> None:
         study.tell(trial, 0.0)
     trial = study.ask()
     trial.suggest_categorical("n_envs", [1, 2, 4, 8])
-    with pytest.raises(RuntimeError, match="sb3_reinforce.zoo"):
+    with pytest.raises(RuntimeError, match=r"sb3_reinforce\.zoo"):
         sample_reinforce_params(trial, 0, trial.params["n_envs"] * 3, {})
 
 
@@ -206,14 +210,30 @@ def test_optimize_two_trials(tmp_path: Path) -> None:
     assert all(set(trial.params) >= {"n_envs", "learning_rate", "baseline", "net_arch"} for trial in study.trials)
     assert list((tmp_path / "reinforce").glob("report_CartPole-v1_2-trials-1000-random-median_*.csv"))
 
+    # Train with the hyperparameters of a trial (the zoo's --trial-id; trial 0 cannot be asked for that way)
+    args = ["train", "--algo", "reinforce", "--env", "CartPole-v1", "-n", "200", "--eval-freq", "-1", "--verbose", "0"]
+    args += ["--storage", str(storage), "--study-name", "two-trials", "--trial-id", "1", "-f", str(tmp_path / "best")]
+    assert main(args) == 0
+    model = REINFORCE.load(tmp_path / "best" / "reinforce" / "CartPole-v1_1" / "CartPole-v1.zip", device="cpu")
+    trial = convert_reinforce_params(study.trials[1].params)
+    assert model.n_envs == trial["n_envs"]
+    assert (model.n_episodes, model.baseline, model.gamma) == (trial["n_episodes"], trial["baseline"], trial["gamma"])
+    assert model.policy_kwargs["net_arch"] == trial["policy_kwargs"]["net_arch"]
 
-def test_distributed_study_two_workers(tmp_path: Path) -> None:
-    # Two workers (separate processes) share one Optuna storage, as workers on several machines would
-    # share one PostgreSQL server; each runs one trial.
-    storage = tmp_path / "study.log"
+
+@pytest.mark.parametrize("backend", ["sqlite", "journal"])
+def test_distributed_study_two_workers(tmp_path: Path, backend: str) -> None:
+    # Two workers (separate processes) share one Optuna storage, as workers on several machines share one
+    # PostgreSQL server (SQLite goes through the same RDB storage); each runs one trial.
+    storage = f"sqlite:///{tmp_path / 'study.db'}" if backend == "sqlite" else str(tmp_path / "study.log")
     args = ["train", "--algo", "reinforce", "--env", "CartPole-v1", "-optimize", "--n-trials", "1", "-n", "1000"]
     args += ["--n-evaluations", "1", "--eval-episodes", "2", "--sampler", "random", "--no-optim-plots"]
-    args += ["--storage", str(storage), "--study-name", "shared", "--num-threads", "1"]
+    args += ["--storage", storage, "--study-name", "shared", "--num-threads", "1"]
+    # Create the study first, as the README says (workers setting up an empty database at once can collide)
+    shared: Any = storage
+    if backend == "journal":
+        shared = optuna.storages.JournalStorage(optuna.storages.journal.JournalFileBackend(storage))
+    optuna.create_study(study_name="shared", storage=shared, direction="maximize")
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]), CUDA_VISIBLE_DEVICES="")
     workers = [
         subprocess.Popen(
@@ -228,10 +248,7 @@ def test_distributed_study_two_workers(tmp_path: Path) -> None:
     ]
     outputs = [worker.communicate(timeout=600)[0] for worker in workers]
     assert [worker.returncode for worker in workers] == [0, 0], outputs
-    study = optuna.load_study(
-        study_name="shared",
-        storage=optuna.storages.JournalStorage(optuna.storages.journal.JournalFileBackend(str(storage))),
-    )
+    study = optuna.load_study(study_name="shared", storage=shared)
     finished = [trial for trial in study.trials if trial.state == optuna.trial.TrialState.COMPLETE]
     assert len(finished) == 2
     worker_pids = {int(trial.user_attrs["worker"].rsplit(":", 1)[1]) for trial in finished}
@@ -248,7 +265,8 @@ def write_config(tmp_path: Path, entry: dict[str, Any]) -> str:
 
 
 def train_args(tmp_path: Path, *extra: str) -> list[str]:
-    return ["train", "--algo", "reinforce", "--env", "CartPole-v1", "-n", "100", "--eval-freq", "-1", "-f", str(tmp_path), *extra]
+    args = ["train", "--algo", "reinforce", "--env", "CartPole-v1", "-n", "100", "--eval-freq", "-1"]
+    return [*args, "-f", str(tmp_path), *extra]
 
 
 def test_unknown_algo(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -284,7 +302,8 @@ def test_missing_env_id(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
     args = train_args(tmp_path)
     args[args.index("CartPole-v1")] = "CartPol-v1"
     assert main(args) == 2
-    assert "--env CartPol-v1: no such environment in the Gymnasium registry. Did you mean CartPole-v1" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "--env CartPol-v1: no such environment in the Gymnasium registry. Did you mean CartPole-v1" in err
     assert main(["enjoy", "--algo", "reinforce", "--env", "NoSuchEnv-v0", "-f", str(tmp_path), "--no-render"]) == 2
     assert "--env NoSuchEnv-v0: no such environment" in capsys.readouterr().err
 
@@ -293,7 +312,8 @@ def test_env_without_config_entry(tmp_path: Path, capsys: pytest.CaptureFixture[
     args = train_args(tmp_path)
     args[args.index("CartPole-v1")] = "FrozenLake-v1"
     assert main(args) == 2
-    assert f"{CONFIGS['reinforce']} has no entry for FrozenLake-v1 (it has: Acrobot-v1, CarRacing-v3" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert f"{CONFIGS['reinforce']} has no entry for FrozenLake-v1 (it has: Acrobot-v1, CarRacing-v3" in err
     assert main(train_args(tmp_path, "-conf", str(tmp_path / "missing.yml"))) == 2
     assert "missing.yml (-conf/--conf-file) does not exist" in capsys.readouterr().err
 
