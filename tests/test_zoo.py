@@ -15,7 +15,7 @@ import optuna
 import pytest
 import rl_zoo3.exp_manager
 import yaml
-from stable_baselines3 import A2C, PPO
+from stable_baselines3 import A2C, PPO, TD3
 from stable_baselines3.common.env_util import make_vec_env
 
 from sb3_reinforce import REINFORCE, seed_hyperparams
@@ -121,15 +121,17 @@ def test_train_enjoy_benchmark_record_video(tmp_path: Path, monkeypatch: pytest.
     assert list((tmp_path / "videos").glob("*reinforce-CartPole-v1*.mp4"))
 
 
-@pytest.mark.parametrize("algo, algo_class", [("a2c", A2C), ("ppo", PPO)])
-def test_zoo_algorithms_still_work(tmp_path: Path, algo: str, algo_class: type) -> None:
-    args = ["train", "--algo", algo, "--env", "CartPole-v1", "-n", "300", "--eval-freq", "-1", "--seed", "0"]
+@pytest.mark.parametrize(
+    "algo, algo_class, env_id", [("a2c", A2C, "CartPole-v1"), ("ppo", PPO, "CartPole-v1"), ("td3", TD3, "Pendulum-v1")]
+)
+def test_zoo_algorithms_still_work(tmp_path: Path, algo: str, algo_class: type, env_id: str) -> None:
+    args = ["train", "--algo", algo, "--env", env_id, "-n", "300", "--eval-freq", "-1", "--seed", "0"]
     assert main([*args, "-f", str(tmp_path), "--verbose", "0"]) == 0
-    run_dir = tmp_path / algo / "CartPole-v1_1"
+    run_dir = tmp_path / algo / f"{env_id}_1"
     # the zoo's own hyperparameters for that algorithm, not ours
     zoo_config = Path(rl_zoo3.exp_manager.__file__).parent / "hyperparams" / f"{algo}.yml"
-    assert load_saved_config(run_dir, "CartPole-v1") == yaml.safe_load(zoo_config.read_text())["CartPole-v1"]
-    assert isinstance(algo_class.load(run_dir / "CartPole-v1.zip", device="cpu"), algo_class)
+    assert load_saved_config(run_dir, env_id) == yaml.safe_load(zoo_config.read_text())[env_id]
+    assert isinstance(algo_class.load(run_dir / f"{env_id}.zip", device="cpu"), algo_class)
 
 
 @pytest.mark.parametrize("config, env_id", ENTRIES)

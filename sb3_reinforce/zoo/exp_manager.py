@@ -114,14 +114,15 @@ class ReinforceExperimentManager(ExperimentManager):
                 "(use --seed, --device, --verbose, -tb/--tensorboard-log)"
             )
         if accepted is not None:
-            unknown = sorted(set(processed) - accepted)
+            # noise_type/noise_std become an action noise object after this step (off-policy algorithms)
+            unknown = sorted(set(processed) - accepted - {"noise_type", "noise_std"})
             if unknown:
                 allowed = sorted(accepted - _ZOO_KEYS - {"_init_setup_model"})
                 raise ZooUsageError(
                     f"{where}: {algo_class.__name__} does not accept {', '.join(map(repr, unknown))}. "
                     f"Its arguments: {', '.join(allowed)}; "
                     "the zoo's own keys: n_timesteps, n_envs, normalize, frame_stack, env_wrapper, vec_env_wrapper, "
-                    "env_kwargs, monitor_kwargs, callback."
+                    "env_kwargs, monitor_kwargs, callback, noise_type, noise_std."
                 )
         if self.algo == ALGO_NAME:
             try:
