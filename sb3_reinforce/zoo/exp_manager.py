@@ -105,6 +105,8 @@ class ReinforceExperimentManager(ExperimentManager):
     def _preprocess_hyperparams(self, hyperparams: dict[str, Any]) -> tuple[dict[str, Any], Any, list[BaseCallback], Any]:
         processed, env_wrapper, callbacks, vec_env_wrapper = super()._preprocess_hyperparams(hyperparams)
         where = f"{self.config} [{self.env_name.gym_id}]"
+        if self.custom_hyperparams:
+            where += f" with -params {' '.join(sorted(self.custom_hyperparams))}"
         algo_class = ALGOS[self.algo]
         accepted = accepted_arguments(algo_class)
         reserved = sorted(set(processed) & _ZOO_KEYS)
