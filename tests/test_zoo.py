@@ -92,6 +92,14 @@ def test_configs_ship_in_the_installed_package(tmp_path: Path) -> None:
     assert paths[0].read_text() == CONFIGS["reinforce"].read_text()
 
 
+def test_every_package_is_listed_in_pyproject() -> None:
+    # pyproject.toml lists the packages explicitly (to map zoo_configs/ into the package): a new subpackage
+    # must be added there, or wheels would silently leave it out.
+    listed = set(tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    found = {".".join(init.parent.relative_to(REPO).parts) for init in (REPO / "sb3_reinforce").rglob("__init__.py")}
+    assert found <= listed
+
+
 def test_train_enjoy_benchmark_record_video(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # Train through the real entry point with our default config.
     out = run_zoo(
