@@ -1,0 +1,10 @@
+"""
+REINFORCE in rl-baselines3-zoo (``rl_zoo3``, the ``zoo`` extra): ``python -m sb3_reinforce.zoo`` or
+``sb3-reinforce-zoo`` runs rl_zoo3's ``train``, ``enjoy``, ``benchmark`` and ``record-video`` with
+``--algo reinforce`` registered. Importing this package registers nothing; :func:`register` does.
+"""
+
+from sb3_reinforce.zoo.cli import COMMANDS, main, register
+from sb3_reinforce.zoo.configs import config_path
+
+__all__ = ["COMMANDS", "config_path", "main", "register"]

@@ -1,0 +1,334 @@
+"""
+rl-baselines3-zoo integration: ``python -m sb3_reinforce.zoo`` (train, enjoy, benchmark, record-video,
+--optimize, distributed studies), the shipped zoo_configs, and the errors bad input gives.
+"""
+
+import importlib.util
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import optuna
+import pytest
+import rl_zoo3.exp_manager
+import yaml
+from stable_baselines3 import A2C, PPO, TD3
+from stable_baselines3.common.env_util import make_vec_env
+
+from sb3_reinforce import REINFORCE, seed_hyperparams
+from sb3_reinforce.zoo import config_path, main
+from sb3_reinforce.zoo.hyperparams_opt import convert_reinforce_params, sample_reinforce_params, suggest_n_envs
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pytest depends on tomli before Python 3.11
+    import tomli as tomllib
+
+REPO = Path(__file__).resolve().parents[1]
+CONFIGS = {name: REPO / "zoo_configs" / f"{name}.yml" for name in ("reinforce", "reinforce_seed")}
+ENTRIES = [(name, env_id) for name, path in CONFIGS.items() for env_id in yaml.safe_load(path.read_text())]
+REQUIRED_ENVS = {
+    "CartPole-v1",
+    "Acrobot-v1",
+    "LunarLander-v3",
+    "MountainCar-v0",
+    "Pendulum-v1",
+    "LunarLanderContinuous-v3",
+    "CarRacing-v3",
+}
+
+
+def run_zoo(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    """Run ``python -m sb3_reinforce.zoo ARGS`` in a fresh interpreter (the real command line)."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]), CUDA_VISIBLE_DEVICES="")
+    return subprocess.run(
+        [sys.executable, "-m", "sb3_reinforce.zoo", *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=600
+    )
+
+
+def load_saved_config(run_dir: Path, env_id: str) -> dict[str, Any]:
+    """The hyperparameters the zoo saved with a run (``<run>/<env>/config.yml``)."""
+    return dict(yaml.load((run_dir / env_id / "config.yml").read_text(), Loader=yaml.UnsafeLoader))
+
+
+def zoo_eval(expression: str) -> Any:
+    """Evaluate a config string (``policy_kwargs``) with the names the zoo has in scope when it does."""
+    return eval(expression, vars(rl_zoo3.exp_manager))
+
+
+def test_default_config_is_ours() -> None:
+    assert config_path("reinforce") == CONFIGS["reinforce"]
+    assert config_path("reinforce_seed") == CONFIGS["reinforce_seed"]
+    assert REQUIRED_ENVS <= set(yaml.safe_load(CONFIGS["reinforce"].read_text()))
+    with pytest.raises(ValueError, match="`name` must be one of"):
+        config_path("ppo")
+
+
+def test_configs_ship_in_the_installed_package(tmp_path: Path) -> None:
+    # Lay the package out as pyproject.toml tells setuptools to (package-dir + package-data), outside the
+    # checkout, and check that an installed copy finds its own config files.
+    setuptools_conf = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
+    site = tmp_path / "site"
+    for package in setuptools_conf["packages"]:
+        source = REPO / setuptools_conf["package-dir"].get(package, package.replace(".", "/"))
+        target = site / package.replace(".", "/")
+        target.mkdir(parents=True, exist_ok=True)
+        patterns = ["*.py", *setuptools_conf["package-data"].get(package, [])]
+        for pattern in patterns:
+            for file in source.glob(pattern):
+                shutil.copy(file, target / file.name)
+    # Load the copied configs module by itself (it needs nothing else), so that __file__ is the copy's.
+    spec = importlib.util.spec_from_file_location("installed_configs", site / "sb3_reinforce/zoo/configs.py")
+    assert spec is not None and spec.loader is not None
+    installed = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(installed)
+    paths = [installed.config_path("reinforce"), installed.config_path("reinforce_seed")]
+    configs = (site / "sb3_reinforce/zoo/configs").resolve()
+    assert paths == [configs / "reinforce.yml", configs / "reinforce_seed.yml"]
+    assert paths[0].read_text() == CONFIGS["reinforce"].read_text()
+
+
+def test_every_package_is_listed_in_pyproject() -> None:
+    # pyproject.toml lists the packages explicitly (to map zoo_configs/ into the package): a new subpackage
+    # must be added there, or wheels would silently leave it out.
+    listed = set(tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    found = {".".join(init.parent.relative_to(REPO).parts) for init in (REPO / "sb3_reinforce").rglob("__init__.py")}
+    assert found <= listed
+
+
+def test_train_enjoy_benchmark_record_video(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # Train through the real entry point with our default config.
+    out = run_zoo(
+        "train", "--algo", "reinforce", "--env", "CartPole-v1", "-n", "2000", "--seed", "0", "--num-threads", "1",
+        "--eval-freq", "1000", "--eval-episodes", "2", "-f", "logs",
+        cwd=tmp_path,
+    )  # fmt: skip
+    assert out.returncode == 0, out.stderr[-3000:]
+    run_dir = tmp_path / "logs" / "reinforce" / "CartPole-v1_1"
+    assert f"Loading hyperparameters from: {CONFIGS['reinforce']}" in out.stdout
+    expected = yaml.safe_load(CONFIGS["reinforce"].read_text())["CartPole-v1"]
+    assert load_saved_config(run_dir, "CartPole-v1") == expected
+    model = REINFORCE.load(run_dir / "CartPole-v1.zip", device="cpu")
+    assert isinstance(model, REINFORCE)
+    assert model.num_timesteps >= 2000
+    assert (run_dir / "best_model.zip").is_file()
+
+    monkeypatch.chdir(tmp_path)
+    # enjoy loads the REINFORCE model and plays it, headless
+    assert main(["enjoy", "--algo", "reinforce", "--env", "CartPole-v1", "-f", "logs", "--no-render", "-n", "600"]) == 0
+    # benchmark evaluates every trained agent of the folder (through `enjoy`, in a subprocess)
+    args = ["--log-dir", "logs", "--benchmark-dir", "bench", "--no-hub", "--test-mode", "-n", "600", "--num-threads", "1"]
+    assert main(["benchmark", *args]) == 0
+    table = (tmp_path / "bench" / "benchmark.md").read_text()
+    assert "|reinforce|CartPole-v1|" in table.replace(" ", "")
+    # record-video
+    args = ["--algo", "reinforce", "--env", "CartPole-v1", "-f", "logs", "-n", "50", "-o", "videos"]
+    assert main(["record-video", *args]) == 0
+    assert list((tmp_path / "videos").glob("*reinforce-CartPole-v1*.mp4"))
+
+
+@pytest.mark.parametrize(
+    "algo, algo_class, env_id", [("a2c", A2C, "CartPole-v1"), ("ppo", PPO, "CartPole-v1"), ("td3", TD3, "Pendulum-v1")]
+)
+def test_zoo_algorithms_still_work(tmp_path: Path, algo: str, algo_class: type, env_id: str) -> None:
+    args = ["train", "--algo", algo, "--env", env_id, "-n", "300", "--eval-freq", "-1", "--seed", "0"]
+    assert main([*args, "-f", str(tmp_path), "--verbose", "0"]) == 0
+    run_dir = tmp_path / algo / f"{env_id}_1"
+    # the zoo's own hyperparameters for that algorithm, not ours
+    zoo_config = Path(rl_zoo3.exp_manager.__file__).parent / "hyperparams" / f"{algo}.yml"
+    assert load_saved_config(run_dir, env_id) == yaml.safe_load(zoo_config.read_text())[env_id]
+    assert isinstance(algo_class.load(run_dir / f"{env_id}.zip", device="cpu"), algo_class)
+
+
+@pytest.mark.parametrize("config, env_id", ENTRIES)
+def test_config_entry_builds_and_trains(tmp_path: Path, config: str, env_id: str) -> None:
+    # Parse + construct + a few hundred steps (episodes cut at 50 steps to keep it short) + save/load.
+    entry = yaml.safe_load(CONFIGS[config].read_text())[env_id]
+    args = ["train", "--algo", "reinforce", "-conf", str(CONFIGS[config]), "--env", env_id, "-n", "200", "--seed", "0"]
+    args += ["--eval-freq", "-1", "-f", str(tmp_path), "--verbose", "0", "--env-kwargs", "max_episode_steps:50"]
+    assert main(args) == 0
+    model = REINFORCE.load(tmp_path / "reinforce" / f"{env_id}_1" / f"{env_id}.zip", device="cpu")
+    assert model.num_timesteps >= 200
+    assert model.n_envs == entry.get("n_envs", 1)
+    assert type(model.policy) is REINFORCE.policy_aliases[entry["policy"]]
+    for key in ("n_episodes", "min_steps", "gamma", "baseline", "normalize_returns", "ent_coef", "max_grad_norm"):
+        if key in entry:
+            assert getattr(model, key) == entry[key], key
+    assert model.lr_schedule(1.0) == pytest.approx(entry.get("learning_rate", 1e-3))
+    if "policy_kwargs" in entry:
+        policy_kwargs = zoo_eval(entry["policy_kwargs"])
+        assert {k: model.policy_kwargs[k] for k in policy_kwargs} == policy_kwargs
+
+
+@pytest.mark.parametrize("env_id", sorted(yaml.safe_load(CONFIGS["reinforce_seed"].read_text())))
+def test_seed_config_is_the_seed_preset(env_id: str) -> None:
+    entry = yaml.safe_load(CONFIGS["reinforce_seed"].read_text())[env_id]
+    as_constructor_args = {k: v for k, v in entry.items() if k not in ("n_envs", "n_timesteps", "env_kwargs")}
+    as_constructor_args["policy_kwargs"] = zoo_eval(as_constructor_args["policy_kwargs"])
+    as_constructor_args.pop("max_rollout_steps", None)
+    assert entry["n_envs"] == 1
+    assert as_constructor_args == seed_hyperparams(env_id)
+
+
+def test_seed_mountaincar_has_no_time_limit() -> None:
+    env_kwargs = yaml.safe_load(CONFIGS["reinforce_seed"].read_text())["MountainCar-v0"]["env_kwargs"]
+    env = gym.make("MountainCar-v0", **env_kwargs)
+    layer = env
+    while isinstance(layer, gym.Wrapper):
+        assert not isinstance(layer, gym.wrappers.TimeLimit)
+        layer = layer.env
+    # with the time limit removed, a constant action runs past the usual 200 steps
+    env.reset(seed=0)
+    for _ in range(300):
+        _, _, terminated, truncated, _ = env.step(1)
+        assert not (terminated or truncated)
+
+
+def test_sampler_gives_valid_reinforce_arguments() -> None:
+    study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=0))
+    for _ in range(12):
+        trial = study.ask()
+        n_envs = suggest_n_envs(trial)
+        kwargs = sample_reinforce_params(trial, 0, n_envs, {})
+        assert "n_envs" not in kwargs
+        model = REINFORCE("MlpPolicy", make_vec_env("CartPole-v1", n_envs=n_envs), device="cpu", **kwargs)
+        assert model.n_envs == n_envs
+        # what the zoo's --trial-id loading does with the stored params
+        assert convert_reinforce_params(trial.params) == {**kwargs, "n_envs": n_envs}
+        study.tell(trial, 0.0)
+    trial = study.ask()
+    trial.suggest_categorical("n_envs", [1, 2, 4, 8])
+    with pytest.raises(RuntimeError, match=r"sb3_reinforce\.zoo"):
+        sample_reinforce_params(trial, 0, trial.params["n_envs"] * 3, {})
+
+
+def test_optimize_two_trials(tmp_path: Path) -> None:
+    storage = tmp_path / "study.log"
+    args = ["train", "--algo", "reinforce", "--env", "CartPole-v1", "-optimize", "--n-trials", "2", "-n", "1000"]
+    args += ["--n-evaluations", "2", "--eval-episodes", "2", "--sampler", "random", "--seed", "0", "--no-optim-plots"]
+    args += ["--storage", str(storage), "--study-name", "two-trials", "-f", str(tmp_path), "--verbose", "0"]
+    assert main(args) == 0
+    study = optuna.load_study(
+        study_name="two-trials",
+        storage=optuna.storages.JournalStorage(optuna.storages.journal.JournalFileBackend(str(storage))),
+    )
+    assert len(study.trials) == 2
+    finished = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)
+    assert all(trial.state in finished for trial in study.trials)
+    assert all(set(trial.params) >= {"n_envs", "learning_rate", "baseline", "net_arch"} for trial in study.trials)
+    assert list((tmp_path / "reinforce").glob("report_CartPole-v1_2-trials-1000-random-median_*.csv"))
+
+    # Train with the hyperparameters of a trial (the zoo's --trial-id; trial 0 cannot be asked for that way)
+    args = ["train", "--algo", "reinforce", "--env", "CartPole-v1", "-n", "200", "--eval-freq", "-1", "--verbose", "0"]
+    args += ["--storage", str(storage), "--study-name", "two-trials", "--trial-id", "1", "-f", str(tmp_path / "best")]
+    assert main(args) == 0
+    model = REINFORCE.load(tmp_path / "best" / "reinforce" / "CartPole-v1_1" / "CartPole-v1.zip", device="cpu")
+    trial = convert_reinforce_params(study.trials[1].params)
+    assert model.n_envs == trial["n_envs"]
+    assert (model.n_episodes, model.baseline, model.gamma) == (trial["n_episodes"], trial["baseline"], trial["gamma"])
+    assert model.policy_kwargs["net_arch"] == trial["policy_kwargs"]["net_arch"]
+
+
+def test_distributed_study_two_workers(tmp_path: Path) -> None:
+    # Two workers (separate processes) share one Optuna storage, as workers on several machines share one
+    # PostgreSQL server (SQLite goes through the same RDB storage as PostgreSQL); each runs one trial.
+    # test_optimize_two_trials uses the other kind of storage, a journal file.
+    storage = f"sqlite:///{tmp_path / 'study.db'}"
+    args = ["train", "--algo", "reinforce", "--env", "CartPole-v1", "-optimize", "--n-trials", "1", "-n", "1000"]
+    args += ["--n-evaluations", "1", "--eval-episodes", "2", "--sampler", "random", "--no-optim-plots"]
+    args += ["--storage", storage, "--study-name", "shared", "--num-threads", "1"]
+    # Create the study first, as the README says (workers setting up an empty database at once can collide)
+    optuna.create_study(study_name="shared", storage=storage, direction="maximize")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]), CUDA_VISIBLE_DEVICES="")
+    workers = [
+        subprocess.Popen(
+            [sys.executable, "-m", "sb3_reinforce.zoo", *args, "--seed", str(seed), "-f", f"logs{seed}"],
+            cwd=tmp_path,
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+        )
+        for seed in (1, 2)
+    ]
+    outputs = [worker.communicate(timeout=600)[0] for worker in workers]
+    assert [worker.returncode for worker in workers] == [0, 0], outputs
+    study = optuna.load_study(study_name="shared", storage=storage)
+    finished = [trial for trial in study.trials if trial.state == optuna.trial.TrialState.COMPLETE]
+    assert len(finished) == 2
+    worker_pids = {int(trial.user_attrs["worker"].rsplit(":", 1)[1]) for trial in finished}
+    assert worker_pids == {worker.pid for worker in workers}
+
+
+# ---- bad input: one clear line on stderr and exit status 2, no traceback ----
+
+
+def write_config(tmp_path: Path, entry: dict[str, Any]) -> str:
+    path = tmp_path / "bad.yml"
+    path.write_text(yaml.safe_dump({"CartPole-v1": {"n_timesteps": 1000, "policy": "MlpPolicy", **entry}}))
+    return str(path)
+
+
+def train_args(tmp_path: Path, *extra: str) -> list[str]:
+    args = ["train", "--algo", "reinforce", "--env", "CartPole-v1", "-n", "100", "--eval-freq", "-1"]
+    return [*args, "-f", str(tmp_path), *extra]
+
+
+def test_unknown_algo(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    args = train_args(tmp_path)
+    args[args.index("reinforce")] = "reinforc"
+    assert main(args) == 2
+    assert "invalid choice: 'reinforc'" in capsys.readouterr().err
+
+
+def test_unknown_command(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["trian", "--algo", "reinforce"]) == 2
+    assert "unknown command 'trian'" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "entry, message",
+    [
+        ({"n_steps": 5}, "REINFORCE does not accept 'n_steps'"),
+        ({"gae_lambda": 0.9, "batch_size": 64}, "REINFORCE does not accept 'batch_size', 'gae_lambda'"),
+        ({"gamma": 1.5}, "`gamma` must be a finite number in [0.0, 1.0], got 1.5"),
+        ({"baseline": "critic"}, "`baseline` must be one of (None, 'value'), got 'critic'"),
+        ({"seed": 3}, "'seed' cannot be set in a config"),
+    ],
+)
+def test_bad_config(tmp_path: Path, capsys: pytest.CaptureFixture[str], entry: dict[str, Any], message: str) -> None:
+    assert main(train_args(tmp_path, "-conf", write_config(tmp_path, entry))) == 2
+    err = capsys.readouterr().err
+    assert message in err
+    assert "bad.yml [CartPole-v1]" in err
+
+
+def test_missing_env_id(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    args = train_args(tmp_path)
+    args[args.index("CartPole-v1")] = "CartPol-v1"
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "--env CartPol-v1: no such environment in the Gymnasium registry. Did you mean CartPole-v1" in err
+    assert main(["enjoy", "--algo", "reinforce", "--env", "NoSuchEnv-v0", "-f", str(tmp_path), "--no-render"]) == 2
+    assert "--env NoSuchEnv-v0: no such environment" in capsys.readouterr().err
+
+
+def test_env_without_config_entry(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    args = train_args(tmp_path)
+    args[args.index("CartPole-v1")] = "FrozenLake-v1"
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert f"{CONFIGS['reinforce']} has no entry for FrozenLake-v1 (it has: Acrobot-v1, CarRacing-v3" in err
+    assert main(train_args(tmp_path, "-conf", str(tmp_path / "missing.yml"))) == 2
+    assert "missing.yml (-conf/--conf-file) does not exist" in capsys.readouterr().err
+
+
+def test_bad_input_from_the_command_line_has_no_traceback(tmp_path: Path) -> None:
+    out = run_zoo(*train_args(tmp_path, "-conf", write_config(tmp_path, {"n_steps": 5})), cwd=tmp_path)
+    assert out.returncode == 2
+    assert "Traceback" not in out.stderr
+    assert out.stderr.strip().splitlines()[-1].startswith("sb3-reinforce-zoo train: error: ")
