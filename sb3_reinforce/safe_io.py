@@ -105,7 +105,10 @@ def check_model_file(path: str | pathlib.Path | io.BufferedIOBase | IO[bytes]) -
                 raise CorruptModelFileError(f"Cannot load {name}: member {damaged!r} fails its CRC check (corrupted file)")
             missing = [member for member in ("data", "policy.pth") if member not in archive.namelist()]
             if missing:
-                raise CorruptModelFileError(f"Cannot load {name}: it has no {missing} member (not an SB3 model file?)")
+                raise CorruptModelFileError(
+                    f"Cannot load {name}: the file is truncated or corrupted, or not an SB3 model file "
+                    f"(it has no {missing} member)"
+                )
             json.loads(archive.read("data").decode())
     except (zipfile.BadZipFile, zlib.error, EOFError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise CorruptModelFileError(
@@ -247,7 +250,9 @@ def save_weights(model: "REINFORCE", path: str | pathlib.Path) -> None:
         "algorithm": "REINFORCE",
         "policy": alias,
         "learning_rate": float(model.learning_rate),
-        "hyperparameters": {name: getattr(model, name) for name in _HYPERPARAMETERS},
+        "hyperparameters": {
+            name: getattr(model, "_stats_window_size" if name == "stats_window_size" else name) for name in _HYPERPARAMETERS
+        },
         "policy_kwargs": _policy_kwargs_to_json(model.policy_kwargs),
         "observation_space": space_to_json(model.observation_space),
         "action_space": space_to_json(model.action_space),

@@ -53,7 +53,8 @@ def make_env(n_envs: int = 1, interrupt_at: int | None = None) -> DummyVecEnv:
 
 
 def make_model(env: DummyVecEnv, baseline: str | None = None, learning_rate: Any = 3e-3) -> REINFORCE:
-    return REINFORCE("MlpPolicy", env, baseline=baseline, learning_rate=learning_rate, policy_kwargs=dict(net_arch=[16]), seed=0)
+    kwargs = dict(baseline=baseline, learning_rate=learning_rate, policy_kwargs=dict(net_arch=[16]), seed=0)
+    return REINFORCE("MlpPolicy", env, **kwargs)
 
 
 def state(model: REINFORCE) -> dict[str, Any]:
