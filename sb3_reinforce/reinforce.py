@@ -20,7 +20,7 @@ from sb3_reinforce.policies import CnnPolicy, MlpPolicy, MultiInputPolicy, Reinf
 from sb3_reinforce.returns import normalize_returns
 from sb3_reinforce.rng import get_rng_state, set_rng_state
 from sb3_reinforce.safe_io import check_model_file
-from sb3_reinforce.validation import validate_hyperparameters
+from sb3_reinforce.validation import check_spaces, validate_hyperparameters
 
 SelfREINFORCE = TypeVar("SelfREINFORCE", bound="REINFORCE")
 
@@ -168,6 +168,7 @@ class REINFORCE(OnPolicyAlgorithm):
             self._setup_model()
 
     def _setup_model(self) -> None:
+        check_spaces(self.observation_space, self.action_space)
         self._setup_lr_schedule()
         self.set_random_seed(self.seed)
 
@@ -229,6 +230,18 @@ class REINFORCE(OnPolicyAlgorithm):
                     "(check the environment, or use VecCheckNan to find the cause)."
                 )
 
+    def _check_finite_terminal(self, env_idx: int, terminal_obs: Any) -> None:
+        # The terminal observation of a truncated episode is read only here, to bootstrap with V(s_T).
+        for key, obs in terminal_obs.items() if isinstance(terminal_obs, dict) else [(None, terminal_obs)]:
+            obs = np.asarray(obs)
+            if np.issubdtype(obs.dtype, np.floating) and not np.isfinite(obs).all():
+                where = f" (key {key!r})" if key is not None else ""
+                raise NonFiniteError(
+                    f"Environment {env_idx} returned a non-finite terminal observation{where} at timestep "
+                    f"{self.num_timesteps}: {obs}. REINFORCE cannot bootstrap the truncated episode from it "
+                    "(check the environment, or use VecCheckNan to find the cause)."
+                )
+
     def _bootstrap_truncated(self, rewards: np.ndarray, dones: np.ndarray, infos: list[dict[str, Any]]) -> np.ndarray:
         """
         With a value baseline, add ``gamma * V(s_T)`` to the last reward of every truncated episode, so that its
@@ -240,6 +253,7 @@ class REINFORCE(OnPolicyAlgorithm):
         rewards = rewards.astype(np.float64)
         for idx in np.flatnonzero(dones):
             if infos[idx].get("TimeLimit.truncated", False) and infos[idx].get("terminal_observation") is not None:
+                self._check_finite_terminal(int(idx), infos[idx]["terminal_observation"])
                 terminal_obs = self.policy.obs_to_tensor(infos[idx]["terminal_observation"])[0]
                 with th.no_grad():
                     terminal_value = self.policy.predict_values(terminal_obs)[0].item()

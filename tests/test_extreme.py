@@ -140,3 +140,30 @@ def test_non_finite_names_env_and_leaves_weights(bad: str) -> None:
         model.learn(100)
     assert all(th.equal(a, b) for a, b in zip(before, model.policy.parameters(), strict=True))
     assert model.rollout_buffer.size() == 2 * 2, "the bad step was not stored"
+
+
+def test_non_finite_terminal_observation_when_bootstrapped() -> None:
+    class BadTerminal(ScaledEnv):
+        def step(self, action: int) -> tuple:
+            obs, reward, terminated, _, info = super().step(action)
+            if terminated:
+                obs[0] = math.nan
+            return obs, reward, False, terminated, info  # a truncation: with a baseline, V(terminal obs) is used
+
+    model = REINFORCE("MlpPolicy", DummyVecEnv([lambda: BadTerminal(4)]), baseline="value", seed=0)
+    with pytest.raises(NonFiniteError, match="Environment 0 returned a non-finite terminal observation"):
+        model.learn(20)
+
+
+@pytest.mark.parametrize("where", ["obs", "action"])
+def test_discrete_start_refused(where: str) -> None:
+    class Shifted(ScaledEnv):
+        def __init__(self) -> None:
+            super().__init__(3)
+            if where == "obs":
+                self.observation_space = spaces.Discrete(3, start=1)
+            else:
+                self.action_space = spaces.Discrete(2, start=-1)
+
+    with pytest.raises(ValueError, match=f"{'observation' if where == 'obs' else 'action'} space .* start=-?1"):
+        REINFORCE("MlpPolicy", DummyVecEnv([Shifted]))

@@ -109,12 +109,12 @@ def _params(model: REINFORCE) -> list[th.Tensor]:
             lambda: IdentityEnv(4),
             "MlpPolicy",
             dict(baseline="value", policy_kwargs=dict(net_arch=[8], activation_fn=th.nn.ReLU)),
-        ),  # noqa: E501
+        ),
         (
             lambda: IdentityEnvBox(eps=0.5),
             "MlpPolicy",
             dict(gamma=0.5, policy_kwargs=dict(log_std_init=-0.5, xavier_init=True)),
-        ),  # noqa: E501
+        ),
         (lambda: SimpleMultiObsEnv(random_start=False), "MultiInputPolicy", dict(n_episodes=2, max_grad_norm=1.0)),
     ],
 )
