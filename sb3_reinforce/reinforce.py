@@ -1,8 +1,11 @@
+import io
+import pathlib
 from typing import Any, ClassVar, TypeVar
 
 import numpy as np
 import torch as th
 from gymnasium import spaces
+from stable_baselines3.common.base_class import SelfBaseAlgorithm
 from stable_baselines3.common.buffers import RolloutBuffer
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
@@ -15,7 +18,9 @@ from torch.nn import functional as F
 from sb3_reinforce.buffers import DictEpisodeRolloutBuffer, EpisodeRolloutBuffer
 from sb3_reinforce.policies import CnnPolicy, MlpPolicy, MultiInputPolicy, ReinforcePolicy
 from sb3_reinforce.returns import normalize_returns
-from sb3_reinforce.validation import validate_hyperparameters
+from sb3_reinforce.rng import get_rng_state, set_rng_state
+from sb3_reinforce.safe_io import check_model_file
+from sb3_reinforce.validation import check_spaces, validate_hyperparameters
 
 SelfREINFORCE = TypeVar("SelfREINFORCE", bound="REINFORCE")
 
@@ -164,6 +169,7 @@ class REINFORCE(OnPolicyAlgorithm):
             self._setup_model()
 
     def _setup_model(self) -> None:
+        check_spaces(self.observation_space, self.action_space)
         self._setup_lr_schedule()
         self.set_random_seed(self.seed)
 
@@ -225,6 +231,18 @@ class REINFORCE(OnPolicyAlgorithm):
                     "(check the environment, or use VecCheckNan to find the cause)."
                 )
 
+    def _check_finite_terminal(self, env_idx: int, terminal_obs: Any) -> None:
+        # The terminal observation of a truncated episode is read only here, to bootstrap with V(s_T).
+        for key, obs in terminal_obs.items() if isinstance(terminal_obs, dict) else [(None, terminal_obs)]:
+            obs = np.asarray(obs)
+            if np.issubdtype(obs.dtype, np.floating) and not np.isfinite(obs).all():
+                where = f" (key {key!r})" if key is not None else ""
+                raise NonFiniteError(
+                    f"Environment {env_idx} returned a non-finite terminal observation{where} at timestep "
+                    f"{self.num_timesteps}: {obs}. REINFORCE cannot bootstrap the truncated episode from it "
+                    "(check the environment, or use VecCheckNan to find the cause)."
+                )
+
     def _bootstrap_truncated(self, rewards: np.ndarray, dones: np.ndarray, infos: list[dict[str, Any]]) -> np.ndarray:
         """
         With a value baseline, add ``gamma * V(s_T)`` to the last reward of every truncated episode, so that its
@@ -236,6 +254,7 @@ class REINFORCE(OnPolicyAlgorithm):
         rewards = rewards.astype(np.float64)
         for idx in np.flatnonzero(dones):
             if infos[idx].get("TimeLimit.truncated", False) and infos[idx].get("terminal_observation") is not None:
+                self._check_finite_terminal(int(idx), infos[idx]["terminal_observation"])
                 terminal_obs = self.policy.obs_to_tensor(infos[idx]["terminal_observation"])[0]
                 with th.no_grad():
                     terminal_value = self.policy.predict_values(terminal_obs)[0].item()
@@ -369,6 +388,54 @@ class REINFORCE(OnPolicyAlgorithm):
             )
         if hasattr(self.policy, "log_std"):
             self.logger.record("train/std", th.exp(self.policy.log_std).mean().item())
+
+    def save(
+        self,
+        path: str | pathlib.Path | io.BufferedIOBase,
+        exclude: Any = None,
+        include: Any = None,
+    ) -> None:
+        """
+        Save the model as SB3 does, plus the states of the torch, numpy and ``random`` generators, so that
+        loading a seeded model continues its random stream (see :meth:`load`).
+
+        :param path: path to the file where the agent should be saved
+        :param exclude: name of parameters that should be excluded in addition to the default ones
+        :param include: name of parameters that might be excluded but should be included anyway
+        """
+        self._rng_state = get_rng_state()
+        try:
+            super().save(path, exclude, include)
+        finally:
+            del self._rng_state
+
+    @classmethod
+    def load(
+        cls: type[SelfBaseAlgorithm],
+        path: str | pathlib.Path | io.BufferedIOBase,
+        env: GymEnv | None = None,
+        device: th.device | str = "auto",
+        custom_objects: dict[str, Any] | None = None,
+        print_system_info: bool = False,
+        force_reset: bool = True,
+        **kwargs: Any,
+    ) -> SelfBaseAlgorithm:
+        """
+        Load a model saved by :meth:`save` (SB3's format: only load files you trust, it unpickles objects;
+        see :func:`sb3_reinforce.safe_io.load_weights` for a format that does not).
+
+        The file is checked first: a truncated or corrupted file raises
+        :class:`~sb3_reinforce.safe_io.CorruptModelFileError`. For a model with a ``seed``, the random generators
+        are restored to their state at save time (instead of being reseeded from ``seed``, as SB3 does).
+
+        Takes SB3's ``BaseAlgorithm.load`` arguments.
+        """
+        check_model_file(path)
+        model = super().load(path, env, device, custom_objects, print_system_info, force_reset, **kwargs)
+        rng_state = model.__dict__.pop("_rng_state", None)
+        if rng_state is not None and model.seed is not None:
+            set_rng_state(rng_state)
+        return model
 
     def learn(
         self: SelfREINFORCE,

@@ -4,6 +4,9 @@ import math
 from numbers import Integral, Real
 from typing import Any
 
+import numpy as np
+from gymnasium import spaces
+
 BASELINES = (None, "value")
 
 
@@ -60,3 +63,26 @@ def validate_hyperparameters(
     check_int("max_rollout_steps", max_rollout_steps, 1)
     if _is_int(min_steps) and min_steps > max_rollout_steps:
         raise ValueError(f"`min_steps` ({min_steps}) cannot exceed `max_rollout_steps` ({max_rollout_steps})")
+
+
+def check_spaces(observation_space: spaces.Space, action_space: spaces.Space) -> None:
+    """
+    Refuse ``Discrete``/``MultiDiscrete`` spaces whose ``start`` is not 0: SB3's preprocessing and action
+    distributions assume values from 0, so such spaces would fail deep inside torch (observations) or
+    silently send the environment actions outside its space (actions).
+
+    :param observation_space: The observation space (``Dict`` spaces are checked key by key)
+    :param action_space: The action space
+    :raises ValueError: naming the space
+    """
+    named = [("action space", action_space)]
+    if isinstance(observation_space, spaces.Dict):
+        named += [(f"observation space[{key!r}]", sub) for key, sub in observation_space.spaces.items()]
+    else:
+        named.append(("observation space", observation_space))
+    for name, space in named:
+        if isinstance(space, (spaces.Discrete, spaces.MultiDiscrete)) and np.any(np.asarray(space.start) != 0):
+            raise ValueError(
+                f"The {name} {space} has start={space.start}: SB3 policies only support Discrete/MultiDiscrete spaces "
+                "starting at 0. Shift it with a wrapper (e.g. gymnasium.wrappers.TransformObservation / TransformAction)."
+            )
