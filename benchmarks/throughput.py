@@ -8,9 +8,11 @@ it measures environment steps per second of:
 - ``limit``: the collection limit: the VecEnv stepped with one policy forward pass per step through SB3's
   ``policy.get_distribution(obs).get_actions()``, no learning (what any SB3 on-policy learner with
   that policy pays at least);
-- ``limit_fast``: the same loop, with REINFORCE's fast sampler (``ReinforcePolicy.sample_actions``)
+- ``limit_fast``: the same loop, with REINFORCE's fast sampler (``ReinforcePolicy.fast_sampler()``)
   instead of SB3's distribution objects, when the policy has one;
 - ``reinforce``, ``reinforce_value``: ``REINFORCE.learn()`` without and with ``baseline="value"``;
+- ``reinforce_sb3_sampling``: ``REINFORCE.learn()`` without baseline, with ``policy_kwargs=dict(fast_rollout=False)``:
+  the rollout samples through SB3's distribution objects, as before the fast path existed;
 - ``ppo``, ``a2c``: SB3's ``PPO.learn()`` and ``A2C.learn()`` with their default settings.
 
 All use the default ``MlpPolicy`` actor (64-64 tanh) and torch pinned to the same number of threads. The
@@ -41,7 +43,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 
 from sb3_reinforce import REINFORCE
 
-VARIANTS = ("raw", "limit", "limit_fast", "reinforce", "reinforce_value", "ppo", "a2c")
+VARIANTS = ("raw", "limit", "limit_fast", "reinforce", "reinforce_value", "reinforce_sb3_sampling", "ppo", "a2c")
 RESULTS = Path(__file__).parent / "results" / "throughput.csv"
 
 
@@ -72,11 +74,12 @@ def time_policy_loop(env: VecEnv, model: REINFORCE, steps: int, fast: bool) -> t
     n_iters = max(1, steps // env.num_envs)
     low, high = getattr(env.action_space, "low", None), getattr(env.action_space, "high", None)
     shape = (-1, *env.action_space.shape)  # type: ignore[misc]
+    sampler = policy.fast_sampler() if fast else None
     obs = env.reset()
     start = time.perf_counter()
     for _ in range(n_iters):
-        if fast:
-            actions = policy.sample_actions(obs)
+        if sampler is not None:
+            actions = sampler(obs)
         else:
             with th.no_grad():
                 actions = policy.get_distribution(obs_as_tensor(obs, policy.device)).get_actions().cpu().numpy()
@@ -102,12 +105,14 @@ def measure(variant: str, env_id: str, n_envs: int, steps: int, seed: int) -> fl
             n, seconds = time_raw(env, steps, seed)
         elif variant in ("limit", "limit_fast"):
             model = REINFORCE("MlpPolicy", env, seed=seed, device="cpu")
-            if variant == "limit_fast" and not hasattr(model.policy, "sample_actions"):
+            if variant == "limit_fast" and not hasattr(model.policy, "fast_sampler"):
                 return float("nan")
             n, seconds = time_policy_loop(env, model, steps, fast=variant == "limit_fast")
-        elif variant in ("reinforce", "reinforce_value"):
+        elif variant.startswith("reinforce"):
             baseline = "value" if variant == "reinforce_value" else None
-            n, seconds = time_learn(REINFORCE("MlpPolicy", env, baseline=baseline, seed=seed, device="cpu"), steps)
+            policy_kwargs = dict(fast_rollout=False) if variant == "reinforce_sb3_sampling" else None
+            model = REINFORCE("MlpPolicy", env, baseline=baseline, seed=seed, device="cpu", policy_kwargs=policy_kwargs)
+            n, seconds = time_learn(model, steps)
         elif variant in ("ppo", "a2c"):
             algo: type[PPO] | type[A2C] = PPO if variant == "ppo" else A2C
             n, seconds = time_learn(algo("MlpPolicy", env, seed=seed, device="cpu"), steps)
@@ -153,6 +158,7 @@ def run(
                 "reinforce_over_raw": ratio(r, med.get("raw", float("nan"))),
                 "reinforce_over_limit": ratio(r, med.get("limit", float("nan"))),
                 "reinforce_over_limit_fast": ratio(r, med.get("limit_fast", float("nan"))),
+                "reinforce_over_sb3_sampling": ratio(r, med.get("reinforce_sb3_sampling", float("nan"))),
                 "reinforce_value_over_limit": ratio(rv, med.get("limit", float("nan"))),
                 "reinforce_over_ppo": ratio(r, med.get("ppo", float("nan"))),
                 "reinforce_over_a2c": ratio(r, med.get("a2c", float("nan"))),
