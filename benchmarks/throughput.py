@@ -22,7 +22,7 @@ is timed: building the model and the VecEnv is not.
 
 Usage::
 
-    python benchmarks/throughput.py                      # full budget (several minutes)
+    python benchmarks/throughput.py                      # full budget: 4096 steps per measurement, 3 repeats
     python benchmarks/throughput.py --steps 2000 --repeats 1 --envs CartPole-v1 --n-envs 1   # seconds
 """
 
@@ -186,7 +186,7 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--envs", nargs="+", default=["CartPole-v1", "LunarLander-v3"])
     parser.add_argument("--n-envs", nargs="+", type=int, default=[1, 8])
-    parser.add_argument("--steps", type=int, default=50_000, help="environment steps per measurement")
+    parser.add_argument("--steps", type=int, default=4096, help="env steps per measurement (PPO: at least a rollout)")
     parser.add_argument("--repeats", type=int, default=3, help="repeats per measurement (the median is reported)")
     parser.add_argument("--threads", type=int, default=1, help="torch threads, the same for every variant")
     parser.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=VARIANTS)
