@@ -25,8 +25,8 @@ RESULTS = Path(__file__).parent / "results" / "memory.csv"
 DEFAULT_RUNS = ["reinforce:100000", "reinforce:1000000", "ppo:100000"]
 
 
-def child(algo: str, steps: int, env_id: str, n_envs: int, seed: int) -> None:
-    """Train in this process and print one JSON line with the memory it used."""
+def child(algo: str, steps: int, env_id: str, n_envs: int, seed: int) -> dict[str, float | int | str]:
+    """Train in this process and return (and print as one JSON line) the memory it used."""
     import psutil
     import torch as th
     from stable_baselines3 import PPO
@@ -57,6 +57,7 @@ def child(algo: str, steps: int, env_id: str, n_envs: int, seed: int) -> None:
     if algo.startswith("reinforce"):
         result["buffer_capacity_per_env"] = model.rollout_buffer.capacity
     print(json.dumps(result))
+    return result
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -66,6 +67,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--n-envs", type=int, default=1)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", type=Path, default=RESULTS)
+    parser.add_argument(
+        "--in-process",
+        action="store_true",
+        help="run in this process instead of a fresh one (a quick check: the peak then covers every run before)",
+    )
     parser.add_argument("--child", nargs=2, metavar=("ALGO", "STEPS"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
 
@@ -75,6 +81,9 @@ def main(argv: list[str] | None = None) -> None:
     rows = []
     for spec in args.runs:
         algo, steps = spec.split(":")
+        if args.in_process:
+            rows.append(child(algo, int(steps), args.env, args.n_envs, args.seed))
+            continue
         cmd = [sys.executable, __file__, "--child", algo, steps, "--env", args.env, "--n-envs", str(args.n_envs)]
         cmd += ["--seed", str(args.seed)]
         out = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout

@@ -46,7 +46,11 @@ def test_throughput_tiny_budget(tmp_path: Path) -> None:
 def test_memory_tiny_budget(tmp_path: Path) -> None:
     memory = load("memory")
     out = tmp_path / "memory.csv"
-    memory.main(["--runs", "reinforce:300", "--env", "CartPole-v1", "--out", str(out)])
+    threads = th.get_num_threads()
+    try:  # in this process: a fresh one would spend seconds importing torch
+        memory.main(["--runs", "reinforce:300", "--env", "CartPole-v1", "--in-process", "--out", str(out)])
+    finally:
+        th.set_num_threads(threads)
     (row,) = read_rows(out)
     assert row["algo"] == "reinforce" and int(row["steps"]) >= 300
     assert float(row["peak_rss_mib"]) >= float(row["rss_before_learn_mib"]) > 0
