@@ -4,7 +4,8 @@ Peak resident memory of training runs, each in its own fresh process.
 REINFORCE's rollout buffer holds one batch of whole episodes and is reused from batch to batch, so the peak
 memory of a long run must equal that of a short one. This script trains ``REINFORCE`` (or SB3's ``PPO`` for
 comparison) for a number of steps in a child process, and reads that process's peak resident set size
-(``ru_maxrss``) and its resident size after training. One row per run goes to ``benchmarks/results/memory.csv``.
+(``ru_maxrss``, or the resident size after training where that is higher: the kernel's high-water mark can lag
+it slightly) and its resident size after training. One row per run goes to ``benchmarks/results/memory.csv``.
 
 Usage::
 
@@ -43,6 +44,9 @@ def child(algo: str, steps: int, env_id: str, n_envs: int, seed: int) -> dict[st
     start = time.perf_counter()
     model.learn(steps)
     seconds = time.perf_counter() - start
+    rss_after = psutil.Process().memory_info().rss
+    # ru_maxrss (KiB on Linux) is the kernel's high-water mark, which can lag the current RSS a little
+    peak = max(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 2**10, rss_after)
     result = {
         "algo": algo,
         "env_id": env_id,
@@ -50,9 +54,8 @@ def child(algo: str, steps: int, env_id: str, n_envs: int, seed: int) -> dict[st
         "steps": model.num_timesteps,
         "seconds": round(seconds, 1),
         "rss_before_learn_mib": round(rss_before / 2**20, 1),
-        "rss_after_learn_mib": round(psutil.Process().memory_info().rss / 2**20, 1),
-        # Linux reports ru_maxrss in KiB
-        "peak_rss_mib": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10, 1),
+        "rss_after_learn_mib": round(rss_after / 2**20, 1),
+        "peak_rss_mib": round(peak / 2**20, 1),
     }
     if algo.startswith("reinforce"):
         result["buffer_capacity_per_env"] = model.rollout_buffer.capacity
