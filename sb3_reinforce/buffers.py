@@ -123,6 +123,7 @@ class EpisodeRolloutBuffer(BaseBuffer):
             name: np.zeros((self.capacity, self.n_envs, *shape), dtype=dtype)
             for name, (shape, dtype) in self._field_specs().items()
         }
+        self._flat = self._flat_views()
         # Rows written per environment, and rows that belong to finished episodes (a prefix of the column)
         self.env_steps = np.zeros(self.n_envs, dtype=np.int64)
         self.finished_steps = np.zeros(self.n_envs, dtype=np.int64)
@@ -155,6 +156,11 @@ class EpisodeRolloutBuffer(BaseBuffer):
             grown[: self.capacity] = array
             self._storage[name] = grown
         self.capacity = new_capacity
+        self._flat = self._flat_views()
+
+    def _flat_views(self) -> dict[str, np.ndarray]:
+        # Views (no copy) of the storage with time and env merged: row ``t * n_envs + env``.
+        return {name: array.reshape(-1, *array.shape[2:]) for name, array in self._storage.items()}
 
     def add(self, obs: Any, action: np.ndarray, reward: np.ndarray, episode_end: np.ndarray) -> None:
         """
@@ -168,12 +174,14 @@ class EpisodeRolloutBuffer(BaseBuffer):
         rows = self.env_steps
         if rows.max() >= self.capacity:
             self._grow()
-        cols = self._env_indices
+        # Row-major (capacity * n_envs) views: one flat index per env is cheaper than a (row, column) pair.
+        flat = self._flat
+        index = rows * self.n_envs + self._env_indices
         for name, values in self._split_obs(obs).items():
-            self._storage[name][rows, cols] = np.reshape(values, (self.n_envs, *self._storage[name].shape[2:]))
-        self._storage["actions"][rows, cols] = np.reshape(action, (self.n_envs, self.action_dim))
-        self._storage["rewards"][rows, cols] = reward
-        self._storage["episode_ends"][rows, cols] = episode_end
+            flat[name][index] = np.reshape(values, (self.n_envs, *flat[name].shape[1:]))
+        flat["actions"][index] = np.reshape(action, (self.n_envs, self.action_dim))
+        flat["rewards"][index] = reward
+        flat["episode_ends"][index] = episode_end
         self.env_steps = rows + 1
         if episode_end.any():
             ended = np.flatnonzero(episode_end)

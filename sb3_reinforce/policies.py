@@ -15,6 +15,8 @@ from stable_baselines3.common.torch_layers import BaseFeaturesExtractor, Combine
 from stable_baselines3.common.type_aliases import PyTorchObs, Schedule
 from torch import nn
 
+from sb3_reinforce.sampling import SUPPORTED_DISTRIBUTIONS, FastSampler
+
 __all__ = ["CnnPolicy", "MlpPolicy", "MultiInputPolicy", "ReinforceCnnPolicy", "ReinforceMultiInputPolicy", "ReinforcePolicy"]
 
 
@@ -46,6 +48,9 @@ class ReinforcePolicy(ActorCriticPolicy):
         algorithm from its ``baseline`` argument.
     :param xavier_init: Initialize all weights and biases Glorot-uniform, as the seed did, instead of
         SB3's orthogonal initialization (``ortho_init`` is then ignored).
+    :param fast_rollout: Sample the rollout's actions with :class:`~sb3_reinforce.sampling.FastSampler` (same
+        distributions as SB3's ``get_distribution(obs).get_actions()``, without building distribution objects).
+        ``False`` keeps SB3's path; gSDE always does.
     :param kwargs: Passed on to ``ActorCriticPolicy`` (``activation_fn``, ``ortho_init``, ``use_sde``,
         ``log_std_init``, ``features_extractor_class``, ``optimizer_class``, ``optimizer_kwargs``, ...)
     """
@@ -58,10 +63,12 @@ class ReinforcePolicy(ActorCriticPolicy):
         net_arch: list[int] | dict[str, list[int]] | None = None,
         value_head: bool = True,
         xavier_init: bool = False,
+        fast_rollout: bool = True,
         **kwargs: Any,
     ):
         self.value_head = value_head
         self.xavier_init = xavier_init
+        self.fast_rollout = fast_rollout
         if not value_head:
             if net_arch is None:
                 net_arch = [] if kwargs.get("features_extractor_class") == NatureCNN else [64, 64]
@@ -83,10 +90,26 @@ class ReinforcePolicy(ActorCriticPolicy):
 
     def _get_constructor_parameters(self) -> dict[str, Any]:
         data = super()._get_constructor_parameters()
-        data.update(value_head=self.value_head, xavier_init=self.xavier_init)
+        data.update(value_head=self.value_head, xavier_init=self.xavier_init, fast_rollout=self.fast_rollout)
         if not self.value_head:
             data.pop("share_features_extractor", None)
         return data
+
+    def fast_sampler(self) -> FastSampler | None:
+        """
+        A :class:`~sb3_reinforce.sampling.FastSampler` for the current parameters, or None where the rollout
+        must use SB3's ``get_distribution(obs).get_actions()``: ``fast_rollout=False``, gSDE, another
+        distribution, or a subclass that changes how the distribution is built.
+        """
+        builds_own_distribution = (
+            type(self).get_distribution is not ActorCriticPolicy.get_distribution
+            or type(self)._get_action_dist_from_latent is not ActorCriticPolicy._get_action_dist_from_latent
+        )
+        if not self.fast_rollout or self.use_sde or builds_own_distribution:
+            return None
+        if not isinstance(self.action_dist, SUPPORTED_DISTRIBUTIONS):
+            return None
+        return FastSampler(self)
 
     def _zero_values(self, like: th.Tensor) -> th.Tensor:
         return th.zeros((like.shape[0], 1), device=like.device, dtype=th.float32)

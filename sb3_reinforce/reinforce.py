@@ -289,17 +289,22 @@ class REINFORCE(OnPolicyAlgorithm):
         if self.use_sde:
             self.policy.reset_noise(env.num_envs)
 
+        # Only the actor runs here: log pi(a|s) (and V(s)) are evaluated with gradients in train().
+        sampler = self.policy.fast_sampler() if isinstance(self.policy, ReinforcePolicy) else None
+
         callback.on_rollout_start()
 
         while not rollout_buffer.is_full:
             if self.use_sde and self.sde_sample_freq > 0 and n_steps % self.sde_sample_freq == 0:
                 self.policy.reset_noise(env.num_envs)
 
-            with th.no_grad():
-                obs_tensor = obs_as_tensor(self._last_obs, self.device)
-                # Only the actor runs here: log pi(a|s) (and V(s)) are evaluated with gradients in train().
-                actions = self.policy.get_distribution(obs_tensor).get_actions().cpu().numpy()
-            actions = actions.reshape((-1, *self.action_space.shape))
+            if sampler is not None:
+                actions = sampler(self._last_obs)
+            else:
+                with th.no_grad():
+                    obs_tensor = obs_as_tensor(self._last_obs, self.device)
+                    actions = self.policy.get_distribution(obs_tensor).get_actions().cpu().numpy()
+                actions = actions.reshape((-1, *self.action_space.shape))
 
             clipped_actions = actions
             if isinstance(self.action_space, spaces.Box):

@@ -1,0 +1,177 @@
+"""
+Fast action sampling for REINFORCE's rollouts.
+
+SB3 samples an action with ``policy.get_distribution(obs).get_actions()``: it builds ``torch.distributions``
+objects (argument validation, ``logsumexp`` normalization, ...) at every step, which costs several times
+the forward pass of a small actor. During a rollout REINFORCE only needs the sampled actions (``log pi(a|s)``
+is evaluated again, with gradients, in ``train()``), so :class:`FastSampler` does only this:
+
+1. one forward pass of the actor to the distribution's parameters (logits, or Gaussian means). For a plain
+   MLP actor on a flat ``Box`` observation (``FlattenExtractor``, ``Linear`` layers, ``Tanh``/``ReLU``
+   activations) it runs in NumPy on views of the policy's own parameters (no copy: the optimizer's in-place
+   updates are seen); any other actor runs its torch modules under ``torch.inference_mode``;
+2. sampling from the parameters with noise drawn from torch's global generator (the stream SB3's
+   ``set_random_seed`` fixes and ``REINFORCE.save`` stores), with the same distributions as SB3's:
+
+   - ``Discrete`` / ``MultiDiscrete`` (categorical, logits ``l``): Gumbel-max,
+     ``a = argmax_i (l_i + g_i)`` with ``g_i = -log(e_i)``, ``e_i ~ Exp(1)``, which is exactly ``Categorical(softmax(l))``;
+   - ``MultiBinary`` (Bernoulli, logits ``l``): ``a = 1[u < sigmoid(l)]`` with ``u ~ U[0, 1)``;
+   - ``Box`` (diagonal Gaussian): ``a = mu + exp(log_std) * n`` with ``n ~ N(0, 1)``. Clipping to the bounds
+     (or unscaling when the policy squashes) is left to the caller, as in SB3.
+
+gSDE, and policies that change how the distribution is built, keep SB3's path (see
+:meth:`~sb3_reinforce.policies.ReinforcePolicy.fast_sampler`).
+"""
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import torch as th
+from gymnasium import spaces
+from scipy.special import expit
+from stable_baselines3.common.distributions import (
+    BernoulliDistribution,
+    CategoricalDistribution,
+    DiagGaussianDistribution,
+    MultiCategoricalDistribution,
+)
+from stable_baselines3.common.preprocessing import is_image_space
+from stable_baselines3.common.torch_layers import FlattenExtractor
+from stable_baselines3.common.utils import obs_as_tensor
+from torch import nn
+
+if TYPE_CHECKING:
+    from sb3_reinforce.policies import ReinforcePolicy
+
+__all__ = ["FastSampler"]
+
+SUPPORTED_DISTRIBUTIONS = (
+    CategoricalDistribution,
+    MultiCategoricalDistribution,
+    BernoulliDistribution,
+    DiagGaussianDistribution,
+)
+
+
+def _relu(x: np.ndarray) -> None:
+    np.maximum(x, 0.0, out=x)
+
+
+def _tanh(x: np.ndarray) -> None:
+    np.tanh(x, out=x)
+
+
+_NUMPY_ACTIVATIONS = {nn.Tanh: _tanh, nn.ReLU: _relu}
+
+
+# The noise comes from torch's global generator, the one stream SB3 seeds (``set_random_seed``) and
+# ``REINFORCE.save`` stores: a sampler holds no random state, so rebuilding it (every rollout, or when a
+# stopped rollout resumes) changes no draw, and an interrupted run continues exactly.
+def _exponential(shape: tuple[int, ...]) -> np.ndarray:
+    return th.empty(shape, dtype=th.float64).exponential_().numpy()
+
+
+def _uniform(shape: tuple[int, ...]) -> np.ndarray:
+    return th.rand(shape, dtype=th.float64).numpy()
+
+
+def _normal(shape: tuple[int, ...]) -> np.ndarray:
+    return th.randn(shape, dtype=th.float64).numpy()
+
+
+class FastSampler:
+    """
+    Samples actions from a :class:`~sb3_reinforce.policies.ReinforcePolicy` with as few operations as possible
+    (see the module docstring). Build one per rollout: it reads the policy's parameters in place, so it
+    follows the optimizer's updates, but a parameter *replaced* by a new tensor is only seen by a new sampler.
+
+    :param policy: The policy to sample from (without gSDE)
+    """
+
+    def __init__(self, policy: "ReinforcePolicy"):
+        assert isinstance(policy.action_dist, SUPPORTED_DISTRIBUTIONS), "FastSampler does not support this distribution"
+        self.policy = policy
+        self.action_dist = policy.action_dist
+        # Each layer: (W^T, b, activation or None), NumPy views of the parameters; None: run the torch modules
+        self.numpy_layers = self._numpy_actor(policy)
+        is_gaussian = isinstance(self.action_dist, DiagGaussianDistribution)
+        self.log_std = policy.log_std.detach().cpu().numpy() if is_gaussian else None
+        if isinstance(self.action_dist, MultiCategoricalDistribution):
+            nvec = np.asarray(self.action_dist.action_dims)
+            # Column of every flat logit in a (n_dims, max(nvec)) grid: the rest of the grid stays -inf.
+            self._grid = (len(nvec), int(nvec.max()))
+            self._grid_index = np.concatenate([d * self._grid[1] + np.arange(n) for d, n in enumerate(nvec)])
+            self._padded: dict[int, np.ndarray] = {}
+
+    @staticmethod
+    def _numpy_actor(policy: "ReinforcePolicy") -> list[tuple[np.ndarray, np.ndarray, Any]] | None:
+        """The actor as NumPy layers if it is a plain MLP on flat float observations on the CPU, else None."""
+        if (
+            policy.device.type != "cpu"
+            or not isinstance(policy.observation_space, spaces.Box)
+            or (is_image_space(policy.observation_space) and policy.normalize_images)
+            or type(policy.pi_features_extractor) is not FlattenExtractor
+        ):
+            return None
+        modules = [*policy.mlp_extractor.policy_net, policy.action_net]
+        layers: list[tuple[np.ndarray, np.ndarray, Any]] = []
+        for module in modules:
+            if isinstance(module, nn.Linear) and type(module) is nn.Linear and module.bias is not None:
+                layers.append((module.weight.detach().numpy().T, module.bias.detach().numpy(), None))
+            elif type(module) in _NUMPY_ACTIVATIONS and layers and layers[-1][2] is None:
+                weight_t, bias, _ = layers[-1]
+                layers[-1] = (weight_t, bias, _NUMPY_ACTIVATIONS[type(module)])
+            else:
+                return None
+        return layers if layers[-1][2] is None else None
+
+    def distribution_parameters(self, obs: Any) -> np.ndarray:
+        """
+        One forward pass of the actor: the logits (categorical, Bernoulli) or the means (Gaussian).
+
+        :param obs: A batch of observations, as the VecEnv returns them
+        :return: Array of shape ``(n_envs, n_params)``
+        """
+        if self.numpy_layers is not None:
+            x = np.asarray(obs).reshape(len(obs), -1).astype(np.float32, copy=False)
+            for weight_t, bias, activation in self.numpy_layers:
+                x = x @ weight_t
+                x += bias
+                if activation is not None:
+                    activation(x)
+            return x
+        policy = self.policy
+        with th.inference_mode():
+            features = policy.extract_features(obs_as_tensor(obs, policy.device), policy.pi_features_extractor)
+            assert isinstance(features, th.Tensor)
+            return policy.action_net(policy.mlp_extractor.forward_actor(features)).cpu().numpy()
+
+    def sample(self, params: np.ndarray) -> np.ndarray:
+        """
+        Draw one action per row of distribution parameters (see the module docstring for the math).
+
+        :param params: Logits or means, shape ``(n_envs, n_params)``
+        :return: Actions with SB3's dtypes: int64 (categorical), float32 (Bernoulli, Gaussian)
+        """
+        if isinstance(self.action_dist, CategoricalDistribution):
+            return np.argmax(params - np.log(_exponential(params.shape)), axis=1)
+        if isinstance(self.action_dist, MultiCategoricalDistribution):
+            grid = self._padded.get(len(params))
+            if grid is None:
+                grid = self._padded[len(params)] = np.full((len(params), *self._grid), -np.inf)
+            grid.reshape(len(params), -1)[:, self._grid_index] = params - np.log(_exponential(params.shape))
+            return np.argmax(grid, axis=2)
+        if isinstance(self.action_dist, BernoulliDistribution):
+            return (_uniform(params.shape) < expit(params)).astype(np.float32)
+        assert self.log_std is not None
+        return (params + np.exp(self.log_std) * _normal(params.shape)).astype(np.float32)
+
+    def __call__(self, obs: Any) -> np.ndarray:
+        """
+        Sample actions for a batch of observations.
+
+        :param obs: A batch of observations, as the VecEnv returns them
+        :return: Actions, shape ``(n_envs, *action_shape)`` (``(n_envs,)`` for ``Discrete``)
+        """
+        shape: tuple[int, ...] = self.policy.action_space.shape  # type: ignore[assignment]
+        return self.sample(self.distribution_parameters(obs)).reshape((-1, *shape))

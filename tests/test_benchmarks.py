@@ -1,0 +1,56 @@
+"""The benchmark scripts run on a tiny budget and write their CSV (no timing is asserted: speed lives in the scripts)."""
+
+import csv
+import importlib.util
+import math
+from pathlib import Path
+from types import ModuleType
+
+import torch as th
+
+BENCHMARKS = Path(__file__).parent.parent / "benchmarks"
+
+
+def load(name: str) -> ModuleType:
+    spec = importlib.util.spec_from_file_location(f"benchmarks_{name}", BENCHMARKS / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def read_rows(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as file:
+        return list(csv.DictReader(file))
+
+
+def test_throughput_tiny_budget(tmp_path: Path) -> None:
+    throughput = load("throughput")
+    out = tmp_path / "throughput.csv"
+    variants = ["raw", "limit", "limit_fast", "reinforce", "a2c"]
+    threads = th.get_num_threads()
+    try:
+        args = ["--envs", "CartPole-v1", "--n-envs", "2", "--steps", "200", "--repeats", "1", "--variants", *variants]
+        throughput.main([*args, "--out", str(out)])
+    finally:
+        th.set_num_threads(threads)
+    rows = read_rows(out)
+    assert [(row["env_id"], row["n_envs"]) for row in rows] == [("CartPole-v1", "2")]
+    for row in rows:
+        for variant in variants:
+            assert float(row[f"{variant}_steps_per_s"]) > 0
+        assert float(row["reinforce_over_raw"]) > 0 and float(row["reinforce_over_a2c"]) > 0
+        assert math.isnan(float(row["reinforce_over_ppo"]))  # PPO was not measured
+
+
+def test_memory_tiny_budget(tmp_path: Path) -> None:
+    memory = load("memory")
+    out = tmp_path / "memory.csv"
+    threads = th.get_num_threads()
+    try:  # in this process: a fresh one would spend seconds importing torch
+        memory.main(["--runs", "reinforce:300", "--env", "CartPole-v1", "--in-process", "--out", str(out)])
+    finally:
+        th.set_num_threads(threads)
+    (row,) = read_rows(out)
+    assert row["algo"] == "reinforce" and int(row["steps"]) >= 300
+    assert float(row["peak_rss_mib"]) >= float(row["rss_before_learn_mib"]) > 0
