@@ -160,9 +160,10 @@ def main(argv: list[str] | None = None) -> None:
     jobs = [(args.env, s, args.episodes, args.out, args.reward_floor) for s in todo]
     with mp.get_context("spawn").Pool(max(1, min(args.workers, len(jobs) or 1))) as pool:
         pool.starmap(run_seed, jobs)
-    frames = [pd.read_csv(args.out / f"episodes_seed{s}.csv") for s in range(args.seeds)]
-    pd.concat(frames).to_csv(args.out / "episodes.csv", index=False)
-    print(f"{len(todo)} seed(s) trained, {args.seeds - len(todo)} already done: {args.out / 'episodes.csv'}")
+    from sb3_reinforce.compare.render import render_seed
+
+    print(render_seed(args.out))
+    print(f"{len(todo)} seed(s) trained, {args.seeds - len(todo)} already done: {args.out}")
 
 
 if __name__ == "__main__":

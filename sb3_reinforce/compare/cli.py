@@ -51,7 +51,9 @@ def build_parser() -> argparse.ArgumentParser:
         "'zoo' (each algorithm its own zoo budget), or a number of steps",
     )
     parser.add_argument("--eval-freq", type=int, default=None, help="evaluate every N env steps (default: budget / 20)")
-    parser.add_argument("--eval-episodes", type=int, default=10, help="episodes per evaluation (default: 10)")
+    parser.add_argument(
+        "--eval-episodes", type=int, default=5, help="episodes per evaluation, deterministic and again stochastic (default: 5)"
+    )
     parser.add_argument("--threshold", default=None, help="solve threshold (default: the env's known one, if any)")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="parallel runs (default: CPU cores)")
     parser.add_argument("--out", type=Path, default=None, help="output folder (default: runs/compare/<env>)")
@@ -105,16 +107,23 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None]:
         if budget < 1:
             raise ValueError(f"--budget must be >= 1 step, got {budget}")
         budgets = dict.fromkeys(algos, budget)
-    specs = []
-    for algo in algos:
-        eval_freq = args.eval_freq or max(1, budgets[algo] // DEFAULT_EVALS_PER_RUN)
-        if eval_freq < 1:
-            raise ValueError(f"--eval-freq must be >= 1, got {eval_freq}")
-        path = config_paths[algo]
-        for seed in range(args.first_seed, args.first_seed + args.seeds):
-            specs.append(
-                RunSpec(args.env, algo, seed, budgets[algo], eval_freq, args.eval_episodes, None if path is None else str(path))
-            )
+    if args.eval_freq is not None and args.eval_freq < 1:
+        raise ValueError(f"--eval-freq must be >= 1, got {args.eval_freq}")
+    eval_freqs = {algo: args.eval_freq or max(1, budgets[algo] // DEFAULT_EVALS_PER_RUN) for algo in algos}
+    # Seed-major order: whenever the command is stopped, the finished runs compare all algorithms on the same seeds.
+    specs = [
+        RunSpec(
+            args.env,
+            algo,
+            seed,
+            budgets[algo],
+            eval_freqs[algo],
+            args.eval_episodes,
+            None if config_paths[algo] is None else str(config_paths[algo]),
+        )
+        for seed in range(args.first_seed, args.first_seed + args.seeds)
+        for algo in algos
+    ]
     return specs, threshold
 
 
@@ -196,6 +205,7 @@ def main(argv: list[str] | None = None) -> None:
     except (ValueError, ZooConfigError) as error:
         parser.error(str(error))
     out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "comparison.json").write_text(json.dumps(dict(env=args.env, threshold=threshold), indent=2))
     print(f"{len(specs)} runs ({len(specs) - len(todo)} already finished) of {args.env} -> {out_dir}")
     for algo in dict.fromkeys(spec.algo for spec in specs):
         spec = next(s for s in specs if s.algo == algo)
