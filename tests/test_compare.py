@@ -94,7 +94,7 @@ def test_reinforce_config_override(tmp_path: Path) -> None:
     path = tmp_path / "r.yml"
     path.write_text(
         "Acrobot-v1:\n  n_envs: 2\n  n_timesteps: !!float 2e4\n  policy: 'MlpPolicy'\n  normalize: true\n"
-        "  gamma: 0.97\n  learning_rate: lin_0.01\n  policy_kwargs: \"dict(net_arch=[8], activation_fn=nn.ReLU)\"\n"
+        '  gamma: 0.97\n  learning_rate: lin_0.01\n  policy_kwargs: "dict(net_arch=[8], activation_fn=nn.ReLU)"\n'
     )
     config = load_zoo_config("reinforce", "Acrobot-v1", path)
     assert (config.n_envs, config.n_timesteps, config.normalize) == (2, 20_000, True)

@@ -137,9 +137,7 @@ def _check_resumable(specs: list[RunSpec], out_dir: Path) -> list[RunSpec]:
             continue
         done = json.loads(path.read_text())["spec"]
         if done != spec.__dict__:
-            raise ValueError(
-                f"{path} is a finished run with other settings ({done}): use another --out, or the same settings"
-            )
+            raise ValueError(f"{path} is a finished run with other settings ({done}): use another --out, or the same settings")
     return todo
 
 

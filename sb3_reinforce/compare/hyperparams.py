@@ -71,7 +71,9 @@ def default_config_path(algo: str) -> Path:
         raise ZooConfigError(f"Unknown algorithm {algo!r}: choose among {', '.join(ALGOS)}")
     spec = importlib.util.find_spec("rl_zoo3")
     if spec is None or spec.origin is None:
-        raise ZooConfigError(f"rl_zoo3 is not installed: it provides {algo.upper()}'s tuned hyperparameters (pip install rl_zoo3)")
+        raise ZooConfigError(
+            f"rl_zoo3 is not installed: it provides {algo.upper()}'s tuned hyperparameters (pip install rl_zoo3)"
+        )
     return Path(spec.origin).parent / "hyperparams" / f"{algo}.yml"
 
 

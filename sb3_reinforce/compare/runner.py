@@ -124,7 +124,7 @@ class ComparisonEvalCallback(BaseCallback):
             rewards, _ = evaluate_policy(
                 self.model, self.eval_env, n_eval_episodes=self.spec.n_eval_episodes, deterministic=deterministic
             )
-            results += [float(np.mean(rewards)), float(np.std(rewards))]  # type: ignore[arg-type]
+            results += [float(np.mean(rewards)), float(np.std(rewards))]
         self.eval_time += time.perf_counter() - eval_start
         row = [
             self.spec.env_id,
