@@ -188,7 +188,8 @@ def test_tiny_compare_run_resume_and_append(tmp_path: Path, capsys: pytest.Captu
         assert run["mean_return"].between(1, 500).all() and run["mean_return_stochastic"].between(1, 500).all()
         assert (run["std_return"] >= 0).all() and (run["peak_rss_mb"] > 0).all()
     summary = json.loads(finished.read_text())
-    assert summary["steps_per_s"] > 0 and summary["hyperparams_source"].endswith("reinforce.yml")
+    assert summary["steps_per_s"] > 0 and summary["cpu_time_s"] > 0
+    assert summary["hyperparams_source"].endswith("reinforce.yml")
     assert (out / "learning_curve.png").read_bytes()[:8] == PNG_MAGIC
     table = (out / "summary.md").read_text()
     assert "| REINFORCE | 1 |" in table and "| PPO | 1 |" in table and "steps to 475" in table

@@ -190,6 +190,8 @@ def run(spec: RunSpec, out_dir: Path, progress: Any = None) -> dict[str, Any]:
         train_time_s=round(train_time, 3),
         steps_per_s=round(model.num_timesteps / train_time, 1),
         peak_rss_mb=round(callback.peak_rss_mb, 1),
+        # CPU seconds of this process (imports, training and evaluations): what the run costs on an idle core
+        cpu_time_s=round(sum(psutil.Process().cpu_times()[:2]), 1),
     )
     (runs_dir / f"{spec.name}.json").write_text(json.dumps(summary, indent=2))
     train_env.close()
