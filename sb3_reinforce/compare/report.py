@@ -95,8 +95,9 @@ def summary_table(results: pd.DataFrame, summaries: dict[tuple[str, int], dict],
         rss = [summaries[(str(algo), s)]["peak_rss_mb"] for s in seeds if (str(algo), s) in summaries]
         row["steps/s, median"] = f"{np.median(sps):,.0f}" if sps else "-"
         row["peak RSS MB, max"] = f"{max(rss):,.0f}" if rss else "-"
-        cpu = [summaries[(str(algo), s)].get("cpu_time_s") for s in seeds if (str(algo), s) in summaries]
-        cpu = [c for c in cpu if c is not None]
+        cpu = [
+            float(summaries[(str(algo), s)]["cpu_time_s"]) for s in seeds if "cpu_time_s" in summaries.get((str(algo), s), {})
+        ]
         row["CPU s per run, median"] = f"{np.median(cpu):,.0f}" if cpu else "-"
         rows.append(row)
     return pd.DataFrame(rows)
