@@ -122,7 +122,11 @@ class ComparisonEvalCallback(BaseCallback):
         results = []
         for deterministic in (True, False):
             rewards, _ = evaluate_policy(
-                self.model, self.eval_env, n_eval_episodes=self.spec.n_eval_episodes, deterministic=deterministic
+                self.model,
+                self.eval_env,
+                n_eval_episodes=self.spec.n_eval_episodes,
+                deterministic=deterministic,
+                return_episode_rewards=True,
             )
             results += [float(np.mean(rewards)), float(np.std(rewards))]
         self.eval_time += time.perf_counter() - eval_start
