@@ -192,11 +192,12 @@ def plot_seed_curves(episodes: pd.DataFrame, threshold: float, path: Path, title
     :param title: The plot's title
     :param window: Moving-mean window, in episodes
     """
-    n_max = int(episodes["episode"].max())
+    # Up to the episode count that every seed reached (an unfinished run has fewer), so the mean is over all seeds
+    n_max = int(episodes.groupby("seed")["episode"].max().min())
     curves = np.full((episodes["seed"].nunique(), n_max), np.nan)
     for i, (_, df) in enumerate(episodes.groupby("seed")):
         df = df.sort_values("episode")
-        curves[i, : len(df)] = rolling_mean(df["episode_return"], window)
+        curves[i] = rolling_mean(df["episode_return"], window)[:n_max]
     step = max(1, n_max // 400)  # a bootstrap every `step` episodes is enough for a plot
     x = np.arange(1, n_max + 1)[::step]
     mean, low, high = _mean_ci_band(curves[:, ::step])
