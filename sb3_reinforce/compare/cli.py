@@ -15,7 +15,9 @@ import json
 import multiprocessing as mp
 import os
 import queue
+import signal
 import sys
+from multiprocessing.managers import SyncManager
 from pathlib import Path
 from typing import Any
 
@@ -141,13 +143,21 @@ def _check_resumable(specs: list[RunSpec], out_dir: Path) -> list[RunSpec]:
     return todo
 
 
+def _ignore_sigint() -> None:
+    # Ctrl-C reaches the whole process group: only the main process handles it (it stops the workers itself).
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _worker(spec: RunSpec, out_dir: Path, messages: Any) -> dict[str, Any]:
     return run(spec, out_dir, progress=lambda steps: messages.put((spec.name, steps)))
 
 
 def _run_all(todo: list[RunSpec], out_dir: Path, workers: int, show_progress: bool) -> None:
     context = mp.get_context("spawn")
-    with context.Manager() as manager, context.Pool(max(1, min(workers, len(todo))), maxtasksperchild=1) as pool:
+    manager = SyncManager(ctx=context)
+    manager.start(_ignore_sigint)
+    n_workers = max(1, min(workers, len(todo)))
+    with manager, context.Pool(n_workers, initializer=_ignore_sigint, maxtasksperchild=1) as pool:
         messages = manager.Queue()
         pending = [pool.apply_async(_worker, (spec, out_dir, messages)) for spec in todo]
         done_steps: dict[str, int] = {}
