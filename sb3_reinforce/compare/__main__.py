@@ -1,0 +1,3 @@
+from sb3_reinforce.compare.cli import main
+
+main()

@@ -1,0 +1,238 @@
+"""
+``sb3-reinforce compare``: REINFORCE vs PPO vs A2C on one environment, same seeds, same evaluation protocol.
+
+    sb3-reinforce compare --env CartPole-v1 --seeds 3
+
+Every argument is checked, and every algorithm's hyperparameters are loaded, before any training starts.
+Runs go in parallel processes (one per CPU core by default), each writing its own files under
+``OUT/runs/``; finished runs are skipped when the command is run again, so a comparison can be resumed
+after an interruption or extended with more seeds or algorithms. ``OUT/results.csv``, ``OUT/summary.md``
+and ``OUT/learning_curve.png`` are rebuilt from all the finished runs at the end.
+"""
+
+import argparse
+import json
+import multiprocessing as mp
+import os
+import queue
+import signal
+import sys
+from multiprocessing.managers import SyncManager
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import pandas as pd
+from tqdm import tqdm
+
+from sb3_reinforce.compare.hyperparams import ALGOS, ZooConfigError, load_zoo_config
+from sb3_reinforce.compare.report import load_summaries, plot_learning_curves, summary_table, to_markdown
+from sb3_reinforce.compare.runner import RunSpec, run
+from sb3_reinforce.stats import SOLVE_THRESHOLDS
+
+__all__ = ["build_parser", "main", "parse_specs"]
+
+#: Evaluations per run when --eval-freq is not given.
+DEFAULT_EVALS_PER_RUN = 20
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``compare`` command's argument parser."""
+    parser = argparse.ArgumentParser(
+        prog="sb3-reinforce compare",
+        description="Train REINFORCE, PPO and A2C on the same env with the same seeds and evaluation protocol.",
+    )
+    parser.add_argument("--env", default="CartPole-v1", help="Gymnasium env id (default: CartPole-v1)")
+    parser.add_argument("--algos", default=",".join(ALGOS), help=f"comma-separated, among {','.join(ALGOS)} (default: all)")
+    parser.add_argument("--seeds", type=int, default=3, help="number of seeds (default: 3)")
+    parser.add_argument("--first-seed", type=int, default=0, help="seeds are first-seed, first-seed+1, ... (default: 0)")
+    parser.add_argument(
+        "--budget",
+        default="ppo",
+        help="training steps of every run: 'ppo' (PPO's zoo budget for the env, for every algorithm: the default), "
+        "'zoo' (each algorithm its own zoo budget), or a number of steps",
+    )
+    parser.add_argument("--eval-freq", type=int, default=None, help="evaluate every N env steps (default: budget / 20)")
+    parser.add_argument(
+        "--eval-episodes", type=int, default=5, help="episodes per evaluation, deterministic and again stochastic (default: 5)"
+    )
+    parser.add_argument("--threshold", default=None, help="solve threshold (default: the env's known one, if any)")
+    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="parallel runs (default: CPU cores)")
+    parser.add_argument("--out", type=Path, default=None, help="output folder (default: runs/compare/<env>)")
+    parser.add_argument("--reinforce-config", type=Path, default=None, help="REINFORCE's zoo yml (default: zoo_configs/)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    return parser
+
+
+def _parse_threshold(text: str | None, env_id: str) -> float | None:
+    if text is None:
+        return SOLVE_THRESHOLDS.get(env_id)
+    try:
+        return float(text)
+    except ValueError:
+        raise ValueError(f"--threshold must be a number, got {text!r}") from None
+
+
+def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None]:
+    """
+    Check the arguments and load every algorithm's hyperparameters, before anything is trained.
+
+    :param args: The parsed command line
+    :return: The runs (finished or not) and the solve threshold
+    :raises ValueError: on any bad input, with a message saying what to change
+    """
+    try:
+        gym.spec(args.env)
+    except gym.error.Error as error:
+        raise ValueError(f"Unknown environment {args.env!r}: {error}") from None
+    algos = [algo.strip().lower() for algo in args.algos.split(",") if algo.strip()]
+    unknown = [algo for algo in algos if algo not in ALGOS]
+    if unknown or not algos:
+        raise ValueError(f"Unknown algorithm(s) {unknown or args.algos!r}: choose among {', '.join(ALGOS)}")
+    if args.seeds < 1:
+        raise ValueError(f"--seeds must be >= 1, got {args.seeds}")
+    if args.eval_episodes < 1:
+        raise ValueError(f"--eval-episodes must be >= 1, got {args.eval_episodes}")
+    threshold = _parse_threshold(args.threshold, args.env)
+    config_paths = {algo: None for algo in algos}
+    if args.reinforce_config is not None:
+        config_paths["reinforce"] = args.reinforce_config
+    configs = {algo: load_zoo_config(algo, args.env, config_paths[algo]) for algo in algos}
+    if args.budget in ("ppo", "zoo"):
+        ppo_budget = load_zoo_config("ppo", args.env).n_timesteps if args.budget == "ppo" else 0
+        budgets = {algo: ppo_budget or configs[algo].n_timesteps for algo in algos}
+    else:
+        try:
+            budget = int(float(args.budget))
+        except ValueError:
+            raise ValueError(f"--budget must be 'ppo', 'zoo' or a number of steps, got {args.budget!r}") from None
+        if budget < 1:
+            raise ValueError(f"--budget must be >= 1 step, got {budget}")
+        budgets = dict.fromkeys(algos, budget)
+    if args.eval_freq is not None and args.eval_freq < 1:
+        raise ValueError(f"--eval-freq must be >= 1, got {args.eval_freq}")
+    eval_freqs = {algo: args.eval_freq or max(1, budgets[algo] // DEFAULT_EVALS_PER_RUN) for algo in algos}
+    # Seed-major order: whenever the command is stopped, the finished runs compare all algorithms on the same seeds.
+    specs = [
+        RunSpec(
+            args.env,
+            algo,
+            seed,
+            budgets[algo],
+            eval_freqs[algo],
+            args.eval_episodes,
+            None if config_paths[algo] is None else str(config_paths[algo]),
+        )
+        for seed in range(args.first_seed, args.first_seed + args.seeds)
+        for algo in algos
+    ]
+    return specs, threshold
+
+
+def _check_resumable(specs: list[RunSpec], out_dir: Path) -> list[RunSpec]:
+    """The runs still to do; refuse an output folder whose finished runs used other settings."""
+    todo = []
+    for spec in specs:
+        path = out_dir / "runs" / f"{spec.name}.json"
+        if not path.exists():
+            todo.append(spec)
+            continue
+        done = json.loads(path.read_text())["spec"]
+        if done != spec.__dict__:
+            raise ValueError(f"{path} is a finished run with other settings ({done}): use another --out, or the same settings")
+    return todo
+
+
+def _ignore_sigint() -> None:
+    # Ctrl-C reaches the whole process group: only the main process handles it (it stops the workers itself).
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _worker(spec: RunSpec, out_dir: Path, messages: Any) -> dict[str, Any]:
+    return run(spec, out_dir, progress=lambda steps: messages.put((spec.name, steps)))
+
+
+def _run_all(todo: list[RunSpec], out_dir: Path, workers: int, show_progress: bool) -> None:
+    context = mp.get_context("spawn")
+    manager = SyncManager(ctx=context)
+    manager.start(_ignore_sigint)
+    n_workers = max(1, min(workers, len(todo)))
+    with manager, context.Pool(n_workers, initializer=_ignore_sigint, maxtasksperchild=1) as pool:
+        messages = manager.Queue()
+        pending = [pool.apply_async(_worker, (spec, out_dir, messages)) for spec in todo]
+        done_steps: dict[str, int] = {}
+        with tqdm(total=sum(s.budget for s in todo), unit="step", disable=not show_progress, desc="compare") as bar:
+            while pending:
+                try:
+                    name, steps = messages.get(timeout=0.5)
+                    budget = next(s.budget for s in todo if s.name == name)
+                    steps = min(steps, budget)  # a run may end a little past its budget
+                    bar.update(max(0, steps - done_steps.get(name, 0)))
+                    done_steps[name] = max(steps, done_steps.get(name, 0))
+                except queue.Empty:
+                    pass
+                for result in [r for r in pending if r.ready()]:
+                    pending.remove(result)
+                    result.get()  # re-raises a run's error here
+                    bar.set_postfix(finished=f"{len(todo) - len(pending)}/{len(todo)}")
+
+
+def write_outputs(out_dir: Path, env_id: str, threshold: float | None) -> pd.DataFrame | None:
+    """
+    Rebuild ``results.csv``, ``summary.csv``, ``summary.md`` and ``learning_curve.png`` from the finished
+    runs in ``out_dir/runs``.
+
+    :param out_dir: The comparison's output folder
+    :param env_id: The environment (for the plot's title)
+    :param threshold: The solve threshold
+    :return: The summary table, or None if no run has finished
+    """
+    summaries = load_summaries(out_dir)
+    if not summaries:
+        return None
+    frames = [pd.read_csv(out_dir / "runs" / f"{algo}_seed{seed}.csv") for algo, seed in summaries]
+    results = pd.concat(frames, ignore_index=True)
+    order = {algo: i for i, algo in enumerate(ALGOS)}
+    results = results.sort_values(["algo", "seed", "eval_index"], key=lambda c: c.map(order) if c.name == "algo" else c)
+    results.to_csv(out_dir / "results.csv", index=False)
+    table = summary_table(results, summaries, threshold)
+    table.to_csv(out_dir / "summary.csv", index=False)
+    (out_dir / "summary.md").write_text(to_markdown(table))
+    plot_learning_curves(results, threshold, out_dir / "learning_curve.png", f"{env_id}: deterministic evaluation")
+    return table
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Command line entry point (see the module docstring)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    out_dir: Path = args.out or Path("runs") / "compare" / args.env
+    try:
+        specs, threshold = parse_specs(args)
+        todo = _check_resumable(specs, out_dir)
+    except (ValueError, ZooConfigError) as error:
+        parser.error(str(error))
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "comparison.json").write_text(json.dumps(dict(env=args.env, threshold=threshold), indent=2))
+    print(f"{len(specs)} runs ({len(specs) - len(todo)} already finished) of {args.env} -> {out_dir}")
+    for algo in dict.fromkeys(spec.algo for spec in specs):
+        spec = next(s for s in specs if s.algo == algo)
+        print(f"  {algo}: {spec.budget:,} steps, evaluation every {spec.eval_freq:,} steps x {spec.n_eval_episodes} episodes")
+    interrupted = False
+    try:
+        if todo:
+            _run_all(todo, out_dir, args.workers, show_progress=not args.no_progress)
+    except KeyboardInterrupt:
+        interrupted = True
+    table = write_outputs(out_dir, args.env, threshold)
+    if table is not None:
+        with pd.option_context("display.width", 250, "display.max_columns", 20, "display.max_colwidth", 60):
+            print(table.to_string(index=False))
+        print(f"Saved {out_dir / 'results.csv'}, {out_dir / 'summary.md'}, {out_dir / 'learning_curve.png'}")
+    if interrupted:
+        print(f"Interrupted: the finished runs are kept in {out_dir / 'runs'}; run the same command to resume.")
+        sys.exit(130)
+
+
+if __name__ == "__main__":
+    main()

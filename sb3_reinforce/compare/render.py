@@ -1,0 +1,117 @@
+"""
+``sb3-reinforce report DIR [DIR ...] [--readme README.md]``: rebuild the tables and plots of result folders
+from their raw files, print each markdown table, and optionally write them into a README between the
+markers ``<!-- results:DIR -->`` and ``<!-- /results:DIR -->``.
+
+A folder with ``runs/`` is a comparison (``sb3-reinforce compare``); a folder with ``episodes_seed*.csv`` is
+a seed reproduction (``sb3-reinforce seed``).
+"""
+
+import argparse
+import json
+import re
+from pathlib import Path
+
+import pandas as pd
+
+from sb3_reinforce.compare.report import plot_seed_curves, seed_table, to_markdown
+from sb3_reinforce.stats import SOLVE_THRESHOLDS
+
+__all__ = ["main", "render", "render_seed", "update_readme"]
+
+
+def _format_seed_table(table: pd.DataFrame) -> pd.DataFrame:
+    shown = table.copy()
+    for column in shown.columns:
+        if column.startswith(("episodes to", "steps to")):
+            shown[column] = [("not reached" if pd.isna(v) or v == float("inf") else f"{int(v):,}") for v in shown[column]]
+        elif "mean" in column or column == "wall-clock s":
+            shown[column] = [f"{v:,.1f}" for v in shown[column]]
+        elif column in ("steps", "episodes"):
+            shown[column] = [f"{int(v):,}" for v in shown[column]]
+    return shown
+
+
+def render_seed(out_dir: Path) -> str:
+    """
+    Merge a seed reproduction's per-seed files into ``episodes.csv``, write ``summary.csv``, ``summary.md``
+    and ``learning_curve.png``.
+
+    :param out_dir: The folder of ``sb3-reinforce seed --out``
+    :return: The markdown table
+    """
+    frames = [pd.read_csv(path) for path in sorted(out_dir.glob("episodes_seed*.csv"))]
+    episodes = pd.concat([f for f in frames if len(f)], ignore_index=True)
+    episodes.to_csv(out_dir / "episodes.csv", index=False)
+    env_id = str(episodes["env"].iloc[0])
+    threshold = SOLVE_THRESHOLDS[env_id]
+    table = seed_table(episodes, threshold)
+    table.to_csv(out_dir / "summary.csv", index=False)
+    markdown = to_markdown(_format_seed_table(table))
+    (out_dir / "summary.md").write_text(markdown)
+    plot_seed_curves(episodes, threshold, out_dir / "learning_curve.png", f"{env_id}: the seed's agent")
+    return markdown
+
+
+def render(out_dir: Path) -> str:
+    """
+    Rebuild a result folder's outputs (comparison or seed reproduction) and return its markdown table.
+
+    :param out_dir: The result folder
+    :return: The markdown table
+    """
+    out_dir = Path(out_dir)
+    if (out_dir / "runs").is_dir():
+        from sb3_reinforce.compare.cli import write_outputs
+
+        meta_path = out_dir / "comparison.json"
+        if meta_path.exists():
+            meta = json.loads(meta_path.read_text())
+            env_id, threshold = meta["env"], meta["threshold"]
+        else:
+            env_id = json.loads(next((out_dir / "runs").glob("*.json")).read_text())["spec"]["env_id"]
+            threshold = SOLVE_THRESHOLDS.get(env_id)
+        if write_outputs(out_dir, env_id, threshold) is None:
+            raise ValueError(f"{out_dir} has no finished run yet")
+        return (out_dir / "summary.md").read_text()
+    if any(out_dir.glob("episodes_seed*.csv")):
+        return render_seed(out_dir)
+    raise ValueError(f"{out_dir} is neither a comparison (runs/) nor a seed reproduction (episodes_seed*.csv)")
+
+
+def update_readme(readme: Path, tables: dict[str, str]) -> list[str]:
+    """
+    Replace the text between ``<!-- results:DIR -->`` and ``<!-- /results:DIR -->`` with each folder's table.
+
+    :param readme: The markdown file
+    :param tables: {DIR as written in the markers: markdown table}
+    :return: The folders whose markers were found and updated
+    """
+    text = readme.read_text()
+    updated = []
+    for name, table in tables.items():
+        pattern = re.compile(rf"(<!-- results:{re.escape(name)} -->\n).*?(<!-- /results:{re.escape(name)} -->)", re.DOTALL)
+        text, count = pattern.subn(lambda m, t=table: m.group(1) + t + m.group(2), text)  # type: ignore[misc]
+        if count:
+            updated.append(name)
+    readme.write_text(text)
+    return updated
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Command line entry point (see the module docstring)."""
+    parser = argparse.ArgumentParser(prog="sb3-reinforce report", description=__doc__.split("\n\n")[0])
+    parser.add_argument("dirs", nargs="+", help="result folders")
+    parser.add_argument("--readme", type=Path, default=None, help="write the tables into this file's markers")
+    args = parser.parse_args(argv)
+    tables = {}
+    for name in args.dirs:
+        try:
+            tables[name.rstrip("/")] = render(Path(name))
+        except ValueError as error:
+            parser.error(str(error))
+        print(f"## {name}\n\n{tables[name.rstrip('/')]}")
+    if args.readme is not None:
+        updated = update_readme(args.readme, tables)
+        missing = sorted(set(tables) - set(updated))
+        print(f"{args.readme}: updated {updated}" + (f"; no markers for {missing}" if missing else ""))

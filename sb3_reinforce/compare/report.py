@@ -1,0 +1,215 @@
+"""
+Figures of a comparison, from its ``results.csv`` and run summaries: per algorithm, the steps and
+wall-clock seconds to reach the solve threshold (median and interquartile range over seeds, "not reached"
+counted as infinitely late), the final score (IQM with a 95% bootstrap CI), steps per second and peak
+memory; the learning-curve plot; and the same as a markdown table. Also the seed reproduction's
+episode-based figures.
+"""
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+
+from sb3_reinforce.stats import bootstrap_ci, first_crossing, iqm, quantile_with_inf, rolling_mean
+
+__all__ = [
+    "load_summaries",
+    "plot_learning_curves",
+    "plot_seed_curves",
+    "seed_table",
+    "summary_table",
+    "to_markdown",
+]
+
+_ALGO_NAMES = {"reinforce": "REINFORCE", "ppo": "PPO", "a2c": "A2C"}
+
+
+def _median_iqr(values: Sequence[float], fmt: str = "{:,.0f}") -> str:
+    values = list(values)
+    if not values:
+        return "-"
+    reached = sum(np.isfinite(values))
+    median, q25, q75 = (quantile_with_inf(values, q) for q in (0.5, 0.25, 0.75))
+
+    def show(x: float) -> str:
+        return "not reached" if np.isinf(x) else fmt.format(x)
+
+    if reached == 0:
+        return f"not reached (0/{len(values)})"
+    return f"{show(median)} [{show(q25)}, {show(q75)}] ({reached}/{len(values)} reached)"
+
+
+def load_summaries(out_dir: Path) -> dict[tuple[str, int], dict]:
+    """
+    The JSON summaries of the finished runs in ``out_dir/runs``.
+
+    :param out_dir: A comparison's output folder
+    :return: {(algo, seed): summary}
+    """
+    summaries = {}
+    for path in sorted((Path(out_dir) / "runs").glob("*.json")):
+        summary = json.loads(path.read_text())
+        summaries[(summary["spec"]["algo"], int(summary["spec"]["seed"]))] = summary
+    return summaries
+
+
+def summary_table(results: pd.DataFrame, summaries: dict[tuple[str, int], dict], threshold: float | None) -> pd.DataFrame:
+    """
+    One row per algorithm: the comparison's figures over seeds (deterministic evaluation returns).
+
+    :param results: The rows of ``results.csv``
+    :param summaries: :func:`load_summaries`'s result (for steps/s and peak memory)
+    :param threshold: The solve threshold (None: no threshold columns)
+    :return: A table of strings, ready to print
+    """
+    rows = []
+    for algo, algo_df in results.groupby("algo", sort=False):
+        per_seed = [seed_df.sort_values("eval_index") for _, seed_df in algo_df.groupby("seed")]
+        # Reaching the threshold counts from the first evaluation after training started: an untrained
+        # deterministic policy can score high by chance (PPO's initial policy balances CartPole on some seeds).
+        trained = [df[df["eval_index"] > 0] for df in per_seed]
+        finals = [float(df["mean_return"].iloc[-1]) for df in per_seed]
+        low, high = bootstrap_ci(finals, iqm)
+        row = {
+            "algorithm": _ALGO_NAMES.get(str(algo), str(algo)),
+            "seeds": len(per_seed),
+            "steps": f"{int(np.median([df['steps'].iloc[-1] for df in per_seed])):,}",
+            "final score, IQM [95% CI]": f"{iqm(finals):.1f} [{low:.1f}, {high:.1f}]",
+        }
+        if threshold is not None:
+            row[f"steps to {threshold:g}, median [IQR]"] = _median_iqr(
+                [first_crossing(df["steps"], df["mean_return"], threshold) for df in trained]
+            )
+            row[f"seconds to {threshold:g}, median [IQR]"] = _median_iqr(
+                [first_crossing(df["wall_time_s"], df["mean_return"], threshold) for df in trained], "{:,.1f}"
+            )
+        seeds = [int(seed) for seed in algo_df["seed"].unique()]
+        sps = [summaries[(str(algo), s)]["steps_per_s"] for s in seeds if (str(algo), s) in summaries]
+        rss = [summaries[(str(algo), s)]["peak_rss_mb"] for s in seeds if (str(algo), s) in summaries]
+        row["steps/s, median"] = f"{np.median(sps):,.0f}" if sps else "-"
+        row["peak RSS MB, max"] = f"{max(rss):,.0f}" if rss else "-"
+        cpu = [
+            float(summaries[(str(algo), s)]["cpu_time_s"]) for s in seeds if "cpu_time_s" in summaries.get((str(algo), s), {})
+        ]
+        row["CPU s per run, median"] = f"{np.median(cpu):,.0f}" if cpu else "-"
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def to_markdown(table: pd.DataFrame) -> str:
+    """
+    A GitHub markdown table.
+
+    :param table: Any data frame
+    :return: The markdown text
+    """
+    lines = ["| " + " | ".join(map(str, table.columns)) + " |", "|" + "---|" * len(table.columns)]
+    lines += ["| " + " | ".join(map(str, row)) + " |" for row in table.itertuples(index=False)]
+    return "\n".join(lines) + "\n"
+
+
+def _mean_ci_band(curves: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    mean = np.nanmean(curves, axis=0)
+    bounds = [bootstrap_ci(col[~np.isnan(col)], np.mean, n_resamples=500) for col in curves.T]
+    return mean, np.array([b[0] for b in bounds]), np.array([b[1] for b in bounds])
+
+
+def plot_learning_curves(results: pd.DataFrame, threshold: float | None, path: Path, title: str) -> None:
+    """
+    Mean deterministic evaluation return over seeds and its 95% bootstrap CI, x in environment steps, one
+    line per algorithm, the solve threshold drawn.
+
+    :param results: The rows of ``results.csv``
+    :param threshold: The solve threshold (None: not drawn)
+    :param path: The PNG to write
+    :param title: The plot's title
+    """
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for algo, algo_df in results.groupby("algo", sort=False):
+        table = algo_df.pivot_table(index="eval_index", columns="seed", values="mean_return")
+        steps = algo_df.groupby("eval_index")["steps"].median().loc[table.index].to_numpy()
+        mean, low, high = _mean_ci_band(table.to_numpy().T)
+        n_seeds = table.shape[1]
+        (line,) = ax.plot(steps, mean, label=f"{_ALGO_NAMES.get(str(algo), algo)} ({n_seeds} seeds)")
+        ax.fill_between(steps, low, high, color=line.get_color(), alpha=0.2)
+    if threshold is not None:
+        ax.axhline(threshold, color="black", linestyle="--", linewidth=1, label=f"solved ({threshold:g})")
+    ax.set_xlabel("environment steps")
+    ax.set_ylabel("evaluation return (deterministic)")
+    ax.set_title(title)
+    ax.legend()
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def seed_table(episodes: pd.DataFrame, threshold: float, window: int = 100) -> pd.DataFrame:
+    """
+    The seed reproduction's figures, one row per seed: episodes (and steps) until the mean training return
+    of the last ``window`` episodes reaches ``threshold``, and the final ``window``-episode mean.
+
+    :param episodes: One row per training episode (``seed``, ``episode``, ``steps``, ``episode_return``, ...)
+    :param threshold: The solve threshold
+    :param window: Moving-mean window, in episodes (the seed and SB3 use 100)
+    :return: A table with one row per seed
+    """
+    rows = []
+    for seed, df in episodes.groupby("seed"):
+        df = df.sort_values("episode")
+        moving = rolling_mean(df["episode_return"], window)
+        moving[: window - 1] = -np.inf  # a full window is needed
+        rows.append(
+            {
+                "seed": int(seed),
+                "episodes": int(df["episode"].iloc[-1]),
+                "steps": int(df["steps"].iloc[-1]),
+                f"episodes to a {window}-episode mean of {threshold:g}": first_crossing(df["episode"], moving, threshold),
+                f"steps to a {window}-episode mean of {threshold:g}": first_crossing(df["steps"], moving, threshold),
+                f"best {window}-episode mean": float(np.max(moving)),
+                f"final {window}-episode mean": float(moving[-1]),
+                "wall-clock s": float(df["wall_time_s"].iloc[-1]),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def plot_seed_curves(episodes: pd.DataFrame, threshold: float, path: Path, title: str, window: int = 100) -> None:
+    """
+    The mean over seeds of each seed's ``window``-episode moving mean of the training return, with its 95%
+    bootstrap CI, x in episodes, the threshold drawn.
+
+    :param episodes: One row per training episode
+    :param threshold: The solve threshold
+    :param path: The PNG to write
+    :param title: The plot's title
+    :param window: Moving-mean window, in episodes
+    """
+    # Up to the episode count that every seed reached (an unfinished run has fewer), so the mean is over all seeds
+    n_max = int(episodes.groupby("seed")["episode"].max().min())
+    curves = np.full((episodes["seed"].nunique(), n_max), np.nan)
+    for i, (_, df) in enumerate(episodes.groupby("seed")):
+        df = df.sort_values("episode")
+        curves[i] = rolling_mean(df["episode_return"], window)[:n_max]
+    step = max(1, n_max // 400)  # a bootstrap every `step` episodes is enough for a plot
+    x = np.arange(1, n_max + 1)[::step]
+    mean, low, high = _mean_ci_band(curves[:, ::step])
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    (line,) = ax.plot(x, mean, label=f"seed's agent ({curves.shape[0]} seeds)")
+    ax.fill_between(x, low, high, color=line.get_color(), alpha=0.2)
+    ax.axhline(threshold, color="black", linestyle="--", linewidth=1, label=f"solved ({threshold:g})")
+    ax.set_xlabel("training episodes")
+    ax.set_ylabel(f"training return, {window}-episode moving mean")
+    ax.set_title(title)
+    ax.legend()
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

@@ -1,0 +1,203 @@
+"""
+One run of the comparison: one algorithm, one seed. It trains on ``n_envs`` training environments and, every
+``eval_freq`` environment steps (all training environments counted), evaluates on a separate evaluation
+environment: ``n_eval_episodes`` episodes with deterministic actions, then as many with sampled actions.
+Each evaluation is appended at once to the run's CSV, so an interrupted run keeps what it measured.
+"""
+
+import csv
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import psutil
+import torch as th
+from stable_baselines3 import A2C, PPO
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.env_util import make_vec_env
+from stable_baselines3.common.evaluation import evaluate_policy
+from stable_baselines3.common.vec_env import VecEnv, VecNormalize, sync_envs_normalization
+
+from sb3_reinforce.compare.hyperparams import ZooConfig, load_zoo_config
+from sb3_reinforce.reinforce import REINFORCE
+
+__all__ = ["RESULT_COLUMNS", "ComparisonEvalCallback", "RunSpec", "run"]
+
+ALGO_CLASSES: dict[str, type[BaseAlgorithm]] = {"reinforce": REINFORCE, "ppo": PPO, "a2c": A2C}
+
+#: Columns of ``results.csv``: one row per algorithm, seed and evaluation point.
+RESULT_COLUMNS = [
+    "env",
+    "algo",
+    "seed",
+    "eval_index",
+    "steps",
+    "episodes",
+    "wall_time_s",
+    "mean_return",
+    "std_return",
+    "mean_return_stochastic",
+    "std_return_stochastic",
+    "peak_rss_mb",
+]
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """
+    Everything that defines one run (and the settings a resumed run must share).
+
+    :param env_id: The environment id
+    :param algo: ``"reinforce"``, ``"ppo"`` or ``"a2c"``
+    :param seed: The seed (model, training and evaluation environments)
+    :param budget: Training environment steps
+    :param eval_freq: Evaluate every this many environment steps
+    :param n_eval_episodes: Episodes per evaluation (deterministic, and again stochastic)
+    :param config_path: The algorithm's zoo yml (None: the default one)
+    """
+
+    env_id: str
+    algo: str
+    seed: int
+    budget: int
+    eval_freq: int
+    n_eval_episodes: int
+    config_path: str | None = None
+
+    @property
+    def name(self) -> str:
+        """File stem of this run's outputs."""
+        return f"{self.algo}_seed{self.seed}"
+
+
+class ComparisonEvalCallback(BaseCallback):
+    """
+    Evaluate every ``eval_freq`` environment steps (and before training) on a separate environment, with
+    deterministic and with sampled actions, and append a row to ``csv_path``. Training wall-clock time
+    excludes the evaluations; peak memory is the resident set size (RSS) of this process.
+
+    :param spec: The run being evaluated
+    :param eval_env: The evaluation environment (synchronized with a ``VecNormalize`` training env if any)
+    :param csv_path: Where the rows are appended
+    :param progress: Called with the environment steps done so far after each evaluation (or None)
+    """
+
+    def __init__(self, spec: RunSpec, eval_env: VecEnv, csv_path: Path, progress: Any = None) -> None:
+        super().__init__()
+        self.spec = spec
+        self.eval_env = eval_env
+        self.csv_path = csv_path
+        self.progress = progress
+        self.eval_index = 0
+        self.next_eval = 0
+        self.last_eval_steps = -1
+        self.n_episodes = 0
+        self.eval_time = 0.0
+        self.start_time = 0.0
+        self.process = psutil.Process()
+        self.peak_rss_mb = 0.0
+
+    def _on_training_start(self) -> None:
+        self.start_time = time.perf_counter()
+        self._evaluate()
+
+    def training_time(self) -> float:
+        """Wall-clock seconds of training so far, evaluations excluded."""
+        return time.perf_counter() - self.start_time - self.eval_time
+
+    def _on_step(self) -> bool:
+        self.n_episodes += sum(1 for info in self.locals["infos"] if "episode" in info)
+        if self.num_timesteps >= self.next_eval:
+            self._evaluate()
+        return True
+
+    def _evaluate(self) -> None:
+        eval_start = time.perf_counter()
+        self.peak_rss_mb = max(self.peak_rss_mb, self.process.memory_info().rss / 2**20)
+        sync_envs_normalization(self.training_env, self.eval_env)
+        results = []
+        for deterministic in (True, False):
+            rewards, _ = evaluate_policy(
+                self.model,
+                self.eval_env,
+                n_eval_episodes=self.spec.n_eval_episodes,
+                deterministic=deterministic,
+                return_episode_rewards=True,
+            )
+            results += [float(np.mean(rewards)), float(np.std(rewards))]
+        self.eval_time += time.perf_counter() - eval_start
+        row = [
+            self.spec.env_id,
+            self.spec.algo,
+            self.spec.seed,
+            self.eval_index,
+            self.num_timesteps,
+            self.n_episodes,
+            round(self.training_time(), 3),
+            *results,
+            round(self.peak_rss_mb, 1),
+        ]
+        with self.csv_path.open("a", newline="") as f:
+            csv.writer(f).writerow(row)
+        self.eval_index += 1
+        self.last_eval_steps = self.num_timesteps
+        self.next_eval = self.eval_index * self.spec.eval_freq
+        if self.progress is not None:
+            self.progress(self.num_timesteps)
+
+
+def _make_envs(config: ZooConfig, seed: int) -> tuple[VecEnv, VecEnv]:
+    train_env = make_vec_env(config.env_id, n_envs=config.n_envs, seed=seed)
+    # The evaluation env's seed is far from the training envs' (seed .. seed + n_envs - 1)
+    eval_env = make_vec_env(config.env_id, n_envs=1, seed=seed + 10_000)
+    if config.normalize:
+        train_env = VecNormalize(train_env, **config.normalize_kwargs)
+        eval_env = VecNormalize(eval_env, training=False, norm_reward=False, **config.normalize_kwargs)
+    return train_env, eval_env
+
+
+def run(spec: RunSpec, out_dir: Path, progress: Any = None) -> dict[str, Any]:
+    """
+    Train and evaluate one run; write ``out_dir/runs/<algo>_seed<seed>.csv`` (one row per evaluation,
+    appended as it goes) and, once finished, ``<algo>_seed<seed>.json`` (the run's summary). A run with a
+    JSON file is finished; anything else is started over.
+
+    :param spec: The run
+    :param out_dir: The comparison's output folder
+    :param progress: Called with the steps done so far after each evaluation (or None)
+    :return: The summary written to the JSON file
+    """
+    th.set_num_threads(1)
+    runs_dir = out_dir / "runs"
+    runs_dir.mkdir(parents=True, exist_ok=True)
+    csv_path = runs_dir / f"{spec.name}.csv"
+    with csv_path.open("w", newline="") as f:
+        csv.writer(f).writerow(RESULT_COLUMNS)
+
+    config = load_zoo_config(spec.algo, spec.env_id, None if spec.config_path is None else Path(spec.config_path))
+    train_env, eval_env = _make_envs(config, spec.seed)
+    model = ALGO_CLASSES[spec.algo](env=train_env, seed=spec.seed, device="cpu", verbose=0, **config.model_kwargs)
+    callback = ComparisonEvalCallback(spec, eval_env, csv_path, progress)
+    model.learn(total_timesteps=spec.budget, callback=callback)
+    train_time = callback.training_time()
+    if callback.last_eval_steps < model.num_timesteps:
+        callback._evaluate()  # the final point, at the end of the budget
+    summary = dict(
+        spec=spec.__dict__,
+        hyperparams_source=str(config.source),
+        hyperparams={key: str(value) for key, value in config.raw.items()},
+        steps=int(model.num_timesteps),
+        train_time_s=round(train_time, 3),
+        steps_per_s=round(model.num_timesteps / train_time, 1),
+        peak_rss_mb=round(callback.peak_rss_mb, 1),
+        # CPU seconds of this process (imports, training and evaluations): what the run costs on an idle core
+        cpu_time_s=round(sum(psutil.Process().cpu_times()[:2]), 1),
+    )
+    (runs_dir / f"{spec.name}.json").write_text(json.dumps(summary, indent=2))
+    train_env.close()
+    eval_env.close()
+    return summary

@@ -1,0 +1,171 @@
+"""
+The seed reproduced: the seed's agent (:func:`~sb3_reinforce.presets.seed_hyperparams`) trained for a fixed
+number of episodes, one training-episode return per row, x axis in episodes, as the blog post reported it.
+
+    python -m sb3_reinforce.seed_reproduction --env LunarLander-v3 --episodes 5000 --seeds 3 --out DIR
+
+Each seed runs in its own process and appends one row per finished training episode to
+``DIR/episodes.csv`` (flushed at once, so an interrupted run keeps every finished episode). A seed whose
+episodes are all in the file is skipped when the command is run again.
+
+Differences from the seed, on purpose: the seed ran its envs unwrapped and cut a LunarLander episode after
+120 s of wall-clock time or when its summed reward fell below -250. Here the registered time limit
+(LunarLander-v3: 1,000 steps, CartPole-v1: 500 steps) replaces the wall-clock cut, which depends on the
+machine and would let an unwrapped CartPole balance forever; the -250 cut is kept for LunarLander
+(``--reward-floor``, as a truncation).
+"""
+
+import argparse
+import csv
+import multiprocessing as mp
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pandas as pd
+import psutil
+import torch as th
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.monitor import Monitor
+
+from sb3_reinforce.presets import seed_hyperparams
+from sb3_reinforce.reinforce import REINFORCE
+
+__all__ = ["EPISODE_COLUMNS", "RewardFloor", "main", "run_seed"]
+
+EPISODE_COLUMNS = ["env", "seed", "episode", "steps", "wall_time_s", "episode_return", "episode_length", "peak_rss_mb"]
+
+
+class RewardFloor(gym.Wrapper):
+    """
+    End (truncate) an episode once its summed reward falls below ``floor``, as the seed's LunarLander script
+    did (``if episode_rewards_sum < -250: done = True``).
+
+    :param env: The environment to wrap
+    :param floor: The summed-reward floor
+    """
+
+    def __init__(self, env: gym.Env, floor: float) -> None:
+        super().__init__(env)
+        self.floor = floor
+        self._sum = 0.0
+
+    def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
+        self._sum = 0.0
+        return self.env.reset(**kwargs)
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        self._sum += float(reward)
+        if self._sum < self.floor and not terminated:
+            truncated = True
+        return obs, float(reward), terminated, truncated, info
+
+
+class _EpisodeRecorder(BaseCallback):
+    """Append one CSV row per finished training episode, and stop after ``n_episodes`` episodes."""
+
+    def __init__(self, path: Path, env_id: str, seed: int, n_episodes: int, start_episode: int = 0) -> None:
+        super().__init__()
+        self.path = path
+        self.env_id = env_id
+        self.seed = seed
+        self.n_episodes = n_episodes
+        self.episode = start_episode
+        self.start_time = time.perf_counter()
+        self.process = psutil.Process()
+        self.peak_rss_mb = 0.0
+
+    def _on_step(self) -> bool:
+        rows = []
+        for info in self.locals["infos"]:
+            if "episode" in info:
+                self.episode += 1
+                self.peak_rss_mb = max(self.peak_rss_mb, self.process.memory_info().rss / 2**20)
+                rows.append(
+                    [
+                        self.env_id,
+                        self.seed,
+                        self.episode,
+                        self.num_timesteps,
+                        round(time.perf_counter() - self.start_time, 3),
+                        float(info["episode"]["r"]),
+                        int(info["episode"]["l"]),
+                        round(self.peak_rss_mb, 1),
+                    ]
+                )
+        if rows:
+            with self.path.open("a", newline="") as f:
+                csv.writer(f).writerows(rows)
+        return self.episode < self.n_episodes
+
+
+def _make_env(env_id: str, reward_floor: float | None) -> gym.Env:
+    env = gym.make(env_id)
+    if reward_floor is not None:
+        env = RewardFloor(env, reward_floor)
+    return Monitor(env)
+
+
+def run_seed(env_id: str, seed: int, n_episodes: int, out_dir: Path, reward_floor: float | None) -> None:
+    """
+    Train the seed's agent on ``env_id`` for ``n_episodes`` episodes and append its episodes to
+    ``out_dir / f"episodes_seed{seed}.csv"`` (one file per seed: no two processes write the same file).
+
+    :param env_id: A registered Gymnasium env id
+    :param seed: The random seed (model, env, torch)
+    :param n_episodes: Number of training episodes
+    :param out_dir: Output folder
+    :param reward_floor: End an episode when its summed reward falls below this (None: never)
+    """
+    th.set_num_threads(1)
+    path = out_dir / f"episodes_seed{seed}.csv"
+    # A partial file is from an interrupted run: it cannot be continued (the weights are gone), so start over.
+    with path.open("w", newline="") as f:
+        csv.writer(f).writerow(EPISODE_COLUMNS)
+    model = REINFORCE(env=_make_env(env_id, reward_floor), seed=seed, device="cpu", **seed_hyperparams(env_id))
+    recorder = _EpisodeRecorder(path, env_id, seed, n_episodes)
+    # Stopped by the recorder after n_episodes; the step budget is only a safety bound.
+    model.learn(total_timesteps=10**9, callback=recorder)
+
+
+def _finished(path: Path, n_episodes: int) -> bool:
+    if not path.exists():
+        return False
+    try:
+        episodes = pd.read_csv(path)["episode"]
+    except (pd.errors.EmptyDataError, KeyError):
+        return False
+    return len(episodes) > 0 and int(episodes.max()) >= n_episodes
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Command line entry point (see the module docstring)."""
+    parser = argparse.ArgumentParser(description="Train the seed's agent for a number of episodes (x axis: episodes).")
+    parser.add_argument("--env", default="LunarLander-v3")
+    parser.add_argument("--episodes", type=int, default=5000)
+    parser.add_argument("--seeds", type=int, default=3, help="number of seeds: 0, 1, ..., seeds-1")
+    parser.add_argument("--reward-floor", type=float, default=None, help="the seed's -250 cut on LunarLander")
+    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--out", type=Path, required=True)
+    args = parser.parse_args(argv)
+    if args.seeds < 1 or args.episodes < 1:
+        parser.error("--seeds and --episodes must be >= 1")
+    gym.spec(args.env)  # unknown env: error before anything runs
+    args.out.mkdir(parents=True, exist_ok=True)
+    todo = [s for s in range(args.seeds) if not _finished(args.out / f"episodes_seed{s}.csv", args.episodes)]
+    jobs = [(args.env, s, args.episodes, args.out, args.reward_floor) for s in todo]
+    with mp.get_context("spawn").Pool(max(1, min(args.workers, len(jobs) or 1))) as pool:
+        pool.starmap(run_seed, jobs)
+    from sb3_reinforce.compare.render import render_seed
+
+    print(render_seed(args.out))
+    print(f"{len(todo)} seed(s) trained, {args.seeds - len(todo)} already done: {args.out}")
+
+
+if __name__ == "__main__":
+    np.set_printoptions(precision=3)
+    main()

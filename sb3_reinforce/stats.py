@@ -1,0 +1,130 @@
+"""
+Statistics for comparing runs over seeds: interquartile mean and percentile-bootstrap confidence intervals
+(as in rliable, Agarwal et al. 2021), steps to a threshold, and medians / quartiles where "not reached"
+counts as infinitely late.
+"""
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+from scipy import stats
+
+__all__ = [
+    "SOLVE_THRESHOLDS",
+    "bootstrap_ci",
+    "first_crossing",
+    "iqm",
+    "quantile_with_inf",
+    "rolling_mean",
+]
+
+#: Score at which an environment counts as solved (Gymnasium's ``reward_threshold`` where it has one;
+#: Pendulum-v1 has none and uses rl-baselines3-zoo's usual -200).
+SOLVE_THRESHOLDS: dict[str, float] = {
+    "CartPole-v1": 475.0,
+    "Acrobot-v1": -100.0,
+    "LunarLander-v3": 200.0,
+    "MountainCar-v0": -110.0,
+    "Pendulum-v1": -200.0,
+    "LunarLanderContinuous-v3": 200.0,
+}
+
+
+def iqm(values: Sequence[float] | np.ndarray) -> float:
+    """
+    Interquartile mean: the mean of the middle 50% of the values, dropping the lowest and highest 25%
+    (``scipy.stats.trim_mean(values, 0.25)``, as rliable). With 5 values, the mean of the middle 3.
+
+    :param values: The scores (one per run)
+    :return: The IQM
+    """
+    array = np.asarray(values, dtype=np.float64)
+    if array.size == 0:
+        raise ValueError("iqm() of an empty sequence")
+    return float(stats.trim_mean(array, proportiontocut=0.25, axis=None))
+
+
+def bootstrap_ci(
+    values: Sequence[float] | np.ndarray,
+    statistic: Callable[[np.ndarray], float] = np.mean,
+    confidence: float = 0.95,
+    n_resamples: int = 2000,
+    seed: int = 0,
+) -> tuple[float, float]:
+    """
+    Percentile-bootstrap confidence interval of ``statistic``: resample the values with replacement
+    ``n_resamples`` times and take the ``(1 - confidence) / 2`` and ``(1 + confidence) / 2`` quantiles of the
+    statistic over the resamples (rliable's default method, with one task).
+
+    :param values: The scores (one per run)
+    :param statistic: Maps a 1-D array to a number (e.g. ``np.mean`` or :func:`iqm`)
+    :param confidence: Coverage of the interval, in (0, 1)
+    :param n_resamples: Number of bootstrap resamples
+    :param seed: Seed of the resampling generator (the interval is reproducible)
+    :return: (lower, upper)
+    """
+    array = np.asarray(values, dtype=np.float64)
+    if array.size == 0:
+        raise ValueError("bootstrap_ci() of an empty sequence")
+    if not 0.0 < confidence < 1.0:
+        raise ValueError(f"confidence must be in (0, 1), got {confidence}")
+    rng = np.random.default_rng(seed)
+    indices = rng.integers(0, array.size, size=(n_resamples, array.size))
+    estimates = np.array([statistic(array[idx]) for idx in indices])
+    alpha = (1.0 - confidence) / 2.0
+    lower, upper = np.quantile(estimates, [alpha, 1.0 - alpha])
+    return float(lower), float(upper)
+
+
+def first_crossing(x: Sequence[float] | np.ndarray, scores: Sequence[float] | np.ndarray, threshold: float) -> float:
+    """
+    The first ``x`` (steps, seconds, episodes) at which ``scores`` reaches ``threshold`` (``>=``).
+
+    :param x: Increasing positions of the scores (e.g. environment steps of each evaluation)
+    :param scores: The scores at those positions
+    :param threshold: The solve threshold
+    :return: The first such ``x``, or ``inf`` if the threshold is never reached ("not reached")
+    """
+    x_arr, s_arr = np.asarray(x, dtype=np.float64), np.asarray(scores, dtype=np.float64)
+    if x_arr.shape != s_arr.shape:
+        raise ValueError(f"x and scores differ in shape: {x_arr.shape} vs {s_arr.shape}")
+    reached = np.flatnonzero(s_arr >= threshold)
+    return float(x_arr[reached[0]]) if reached.size else float("inf")
+
+
+def quantile_with_inf(values: Sequence[float] | np.ndarray, q: float) -> float:
+    """
+    Linear-interpolation quantile (numpy's default) where ``inf`` ("not reached") is a valid, largest value:
+    a quantile that falls on or next to an ``inf`` is ``inf``, one between finite values is interpolated.
+
+    :param values: e.g. steps to threshold of each seed, ``inf`` where not reached
+    :param q: The quantile, in [0, 1] (0.5: median, 0.25 / 0.75: quartiles)
+    :return: The quantile (``inf`` means "not reached" at that quantile)
+    """
+    array = np.sort(np.asarray(values, dtype=np.float64))
+    if array.size == 0:
+        raise ValueError("quantile_with_inf() of an empty sequence")
+    position = q * (array.size - 1)
+    low, high = int(np.floor(position)), int(np.ceil(position))
+    frac = position - low
+    if frac == 0.0:
+        return float(array[low])
+    if np.isinf(array[high]):
+        return float("inf")
+    return float(array[low] + frac * (array[high] - array[low]))
+
+
+def rolling_mean(values: Sequence[float] | np.ndarray, window: int) -> np.ndarray:
+    """
+    Mean of the last ``window`` values at each position (fewer at the start), as the seed's and SB3's
+    "mean reward of the last 100 episodes".
+
+    :param values: One value per episode
+    :param window: Window length
+    :return: Array of the same length as ``values``
+    """
+    array = np.asarray(values, dtype=np.float64)
+    cumsum = np.concatenate([[0.0], np.cumsum(array)])
+    idx = np.arange(1, array.size + 1)
+    start = np.maximum(0, idx - window)
+    return (cumsum[idx] - cumsum[start]) / (idx - start)

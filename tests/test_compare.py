@@ -1,0 +1,227 @@
+"""The comparison command, its statistics and its bad-input errors."""
+
+import json
+import os
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pandas as pd
+import pytest
+
+from sb3_reinforce.compare.cli import _check_resumable, build_parser, main, parse_specs, write_outputs
+from sb3_reinforce.compare.hyperparams import ZooConfigError, load_zoo_config
+from sb3_reinforce.compare.render import update_readme
+from sb3_reinforce.compare.runner import RESULT_COLUMNS, RunSpec
+from sb3_reinforce.seed_reproduction import EPISODE_COLUMNS, RewardFloor
+from sb3_reinforce.seed_reproduction import main as seed_main
+from sb3_reinforce.stats import bootstrap_ci, first_crossing, iqm, quantile_with_inf, rolling_mean
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+# ---------------------------------------------------------------- statistics, against hand-computed values
+
+
+def test_iqm_hand_computed() -> None:
+    assert iqm([1, 2, 3, 4, 5]) == 3.0  # drops 1 and 5: mean(2, 3, 4)
+    assert iqm([5, 1, 100, 4, 2]) == pytest.approx(11 / 3)  # sorted 1 2 4 5 100: mean(2, 4, 5)
+    assert iqm([1, 2, 3, 10]) == 2.5  # mean(2, 3)
+    assert iqm([1, 2, 3, 4, 5, 6, 7, 8]) == 4.5  # mean(3, 4, 5, 6)
+    with pytest.raises(ValueError):
+        iqm([])
+
+
+def test_bootstrap_ci_hand_computed() -> None:
+    # Resampled means of [0, 1]: 0 (p=1/4), 0.5 (p=1/2), 1 (p=1/4): the 5% and 95% quantiles are 0 and 1.
+    assert bootstrap_ci([0.0, 1.0], np.mean, confidence=0.9) == (0.0, 1.0)
+    # A constant sample has a zero-width interval, whatever the statistic.
+    assert bootstrap_ci([7.0] * 5, iqm) == (7.0, 7.0)
+    # Each resample mean lies in [min, max]; the interval is reproducible and contains the sample mean here.
+    values = [1.0, 2.0, 3.0, 4.0, 10.0]
+    low, high = bootstrap_ci(values)
+    assert 1.0 <= low < np.mean(values) < high <= 10.0
+    assert bootstrap_ci(values) == (low, high)
+    # A narrower confidence gives a narrower interval
+    low50, high50 = bootstrap_ci(values, confidence=0.5)
+    assert low <= low50 and high50 <= high
+    with pytest.raises(ValueError):
+        bootstrap_ci(values, confidence=1.0)
+
+
+def test_first_crossing_hand_computed() -> None:
+    steps, scores = [0, 10, 20, 30], [1.0, 5.0, 3.0, 9.0]
+    assert first_crossing(steps, scores, 5.0) == 10  # reaching counts (>=), the first time
+    assert first_crossing(steps, scores, 6.0) == 30
+    assert first_crossing(steps, scores, 0.0) == 0
+    assert first_crossing(steps, scores, 10.0) == float("inf")  # not reached
+    assert first_crossing(steps, [-150.0, -99.0, -100.0, -80.0], -100.0) == 10  # negative thresholds (Acrobot)
+    with pytest.raises(ValueError):
+        first_crossing([0, 1], [1.0], 0.0)
+
+
+def test_quantile_with_inf_hand_computed() -> None:
+    inf = float("inf")
+    assert [quantile_with_inf([5, 1, 4, 2, 3], q) for q in (0.25, 0.5, 0.75)] == [2, 3, 4]
+    assert quantile_with_inf([1, 2, 3, 4], 0.5) == 2.5
+    assert quantile_with_inf([10, 20, 30, inf, inf], 0.5) == 30  # 3 of 5 reached: the median is finite
+    assert quantile_with_inf([10, 20, 30, inf, inf], 0.75) == inf
+    assert quantile_with_inf([10, 20, inf, inf, inf], 0.5) == inf  # most seeds did not reach it
+    assert quantile_with_inf([10, 20, inf, inf], 0.5) == inf  # halfway between 20 and "never"
+    assert quantile_with_inf([10, 20, inf, inf], 0.25) == 17.5
+
+
+def test_rolling_mean_hand_computed() -> None:
+    np.testing.assert_allclose(rolling_mean([1, 2, 3, 4], 2), [1.0, 1.5, 2.5, 3.5])
+    np.testing.assert_allclose(rolling_mean([4, 0, 2], 10), [4.0, 2.0, 2.0])
+
+
+# ---------------------------------------------------------------- hyperparameters
+
+
+def test_zoo_configs_parsed_as_the_zoo() -> None:
+    ppo = load_zoo_config("ppo", "CartPole-v1")
+    assert ppo.source.parts[-3:] == ("rl_zoo3", "hyperparams", "ppo.yml")  # the installed zoo's file
+    assert (ppo.n_envs, ppo.n_timesteps) == (8, 100_000)
+    assert callable(ppo.model_kwargs["learning_rate"]) and ppo.model_kwargs["learning_rate"](1.0) == pytest.approx(1e-3)
+    assert "n_envs" not in ppo.model_kwargs and "n_timesteps" not in ppo.model_kwargs
+    a2c = load_zoo_config("a2c", "Acrobot-v1")
+    assert a2c.normalize and "normalize" not in a2c.model_kwargs
+    reinforce = load_zoo_config("reinforce", "CartPole-v1")
+    assert reinforce.source.name == "reinforce.yml" and reinforce.model_kwargs["policy"] == "MlpPolicy"
+
+
+def test_reinforce_config_override(tmp_path: Path) -> None:
+    path = tmp_path / "r.yml"
+    path.write_text(
+        "Acrobot-v1:\n  n_envs: 2\n  n_timesteps: !!float 2e4\n  policy: 'MlpPolicy'\n  normalize: true\n"
+        '  gamma: 0.97\n  learning_rate: lin_0.01\n  policy_kwargs: "dict(net_arch=[8], activation_fn=nn.ReLU)"\n'
+    )
+    config = load_zoo_config("reinforce", "Acrobot-v1", path)
+    assert (config.n_envs, config.n_timesteps, config.normalize) == (2, 20_000, True)
+    assert config.normalize_kwargs == {"gamma": 0.97}  # the zoo normalizes rewards with the algorithm's gamma
+    assert config.model_kwargs["policy_kwargs"]["activation_fn"] is __import__("torch").nn.ReLU
+    assert config.model_kwargs["learning_rate"](0.5) == pytest.approx(0.005)
+    with pytest.raises(ZooConfigError, match="no hyperparameters for CartPole-v1"):
+        load_zoo_config("reinforce", "CartPole-v1", path)
+    path.write_text("Acrobot-v1:\n  n_timesteps: 10\n  frame_stack: 4\n")
+    with pytest.raises(ZooConfigError, match="frame_stack"):
+        load_zoo_config("reinforce", "Acrobot-v1", path)
+
+
+# ---------------------------------------------------------------- bad input: clear errors before training
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--env", "NoSuchEnv-v0"], "Unknown environment 'NoSuchEnv-v0'"),
+        (["--algos", "reinforce,dqn"], "Unknown algorithm"),
+        (["--seeds", "0"], "--seeds must be >= 1"),
+        (["--eval-freq", "0"], "--eval-freq must be >= 1"),
+        (["--threshold", "high"], "--threshold must be a number"),
+        (["--budget", "lots"], "--budget must be"),
+        (
+            ["--env", "MountainCarContinuous-v0", "--algos", "reinforce"],
+            "REINFORCE has no hyperparameters for MountainCarContinuous-v0",
+        ),
+    ],
+)
+def test_bad_input_fails_before_training(
+    args: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as exc:
+        main([*args, "--out", str(out), "--no-progress"])
+    assert exc.value.code == 2
+    assert message in capsys.readouterr().err
+    assert not out.exists()  # nothing was started
+
+
+def test_budget_options() -> None:
+    parser = build_parser()
+    specs, threshold = parse_specs(parser.parse_args([]))
+    assert threshold == 475.0
+    assert {s.algo: s.budget for s in specs} == {"reinforce": 100_000, "ppo": 100_000, "a2c": 100_000}  # PPO's budget
+    assert {s.eval_freq for s in specs} == {5_000} and len(specs) == 9
+    specs, _ = parse_specs(parser.parse_args(["--budget", "zoo", "--threshold", "400"]))
+    assert {s.algo: s.budget for s in specs} == {"reinforce": 100_000, "ppo": 100_000, "a2c": 500_000}
+    specs, _ = parse_specs(parser.parse_args(["--budget", "2e4", "--algos", "ppo", "--seeds", "2", "--first-seed", "7"]))
+    assert [(s.algo, s.seed, s.budget) for s in specs] == [("ppo", 7, 20_000), ("ppo", 8, 20_000)]
+
+
+def test_finished_run_with_other_settings_is_refused(tmp_path: Path) -> None:
+    spec = RunSpec("CartPole-v1", "ppo", 0, 1000, 500, 2)
+    (tmp_path / "runs").mkdir()
+    (tmp_path / "runs" / "ppo_seed0.csv").write_text(",".join(RESULT_COLUMNS) + "\n")  # interrupted: no JSON
+    assert _check_resumable([spec], tmp_path) == [spec]
+    other = RunSpec("CartPole-v1", "ppo", 0, 2000, 500, 2)
+    (tmp_path / "runs" / "ppo_seed0.json").write_text(json.dumps({"spec": other.__dict__}))
+    with pytest.raises(ValueError, match="other settings"):
+        _check_resumable([spec], tmp_path)
+    assert _check_resumable([other], tmp_path) == []
+
+
+# ---------------------------------------------------------------- a tiny comparison, end to end
+
+
+def test_tiny_compare_run_resume_and_append(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "cmp"
+    common = ["--env", "CartPole-v1", "--seeds", "1", "--budget", "2000", "--eval-freq", "1000", "--eval-episodes", "2"]
+    common += ["--workers", "1", "--no-progress", "--out", str(out)]
+    main([*common, "--algos", "reinforce"])
+    finished = out / "runs" / "reinforce_seed0.json"
+    mtime = os.stat(finished).st_mtime_ns
+    # An interrupted run of PPO: a CSV without a summary. It does not enter the results and is run again.
+    (out / "runs" / "ppo_seed0.csv").write_text(",".join(RESULT_COLUMNS) + "\nCartPole-v1,ppo,0,0,0,0,0,1,0,1,0,1\n")
+    write_outputs(out, "CartPole-v1", 475.0)
+    assert set(pd.read_csv(out / "results.csv")["algo"]) == {"reinforce"}
+
+    main([*common, "--algos", "reinforce,ppo"])  # appends PPO, skips the finished REINFORCE run
+    assert "2 runs (1 already finished)" in capsys.readouterr().out
+    assert os.stat(finished).st_mtime_ns == mtime
+
+    results = pd.read_csv(out / "results.csv")
+    assert list(results.columns) == RESULT_COLUMNS
+    assert list(results["algo"].unique()) == ["reinforce", "ppo"]
+    for _, run in results.groupby("algo"):
+        assert list(run["eval_index"]) == list(range(len(run)))
+        assert run["steps"].iloc[0] == 0 and run["steps"].iloc[-1] >= 2000
+        assert list(run["steps"]) == sorted(run["steps"]) and list(run["wall_time_s"]) == sorted(run["wall_time_s"])
+        assert list(run["episodes"]) == sorted(run["episodes"]) and run["episodes"].iloc[-1] > 0
+        assert run["mean_return"].between(1, 500).all() and run["mean_return_stochastic"].between(1, 500).all()
+        assert (run["std_return"] >= 0).all() and (run["peak_rss_mb"] > 0).all()
+        assert (run["std_return_stochastic"] > 0).any()  # the spread over episodes, not of a single mean
+    summary = json.loads(finished.read_text())
+    assert summary["steps_per_s"] > 0 and summary["cpu_time_s"] > 0
+    assert summary["hyperparams_source"].endswith("reinforce.yml")
+    assert (out / "learning_curve.png").read_bytes()[:8] == PNG_MAGIC
+    table = (out / "summary.md").read_text()
+    assert "| REINFORCE | 1 |" in table and "| PPO | 1 |" in table and "steps to 475" in table
+
+
+def test_seed_reproduction_tiny_run(tmp_path: Path) -> None:
+    seed_main(["--env", "CartPole-v1", "--episodes", "4", "--seeds", "1", "--workers", "1", "--out", str(tmp_path)])
+    episodes = pd.read_csv(tmp_path / "episodes.csv")
+    assert list(episodes.columns) == EPISODE_COLUMNS
+    assert list(episodes["episode"]) == [1, 2, 3, 4]
+    assert (episodes["steps"].diff().dropna() == episodes["episode_length"].iloc[1:].to_numpy()).all()
+    assert (tmp_path / "learning_curve.png").read_bytes()[:8] == PNG_MAGIC
+    assert "| 0 | 4 |" in (tmp_path / "summary.md").read_text()
+
+
+def test_reward_floor_cuts_the_episode() -> None:
+    env = RewardFloor(gym.make("CartPole-v1"), floor=0.5)  # CartPole gives +1 per step: never below 0.5
+    env.reset(seed=0)
+    assert not any(env.step(0)[3] for _ in range(3))
+    env = RewardFloor(gym.make("CartPole-v1"), floor=2.5)  # sum 1 after one step, 2 after two: below 2.5
+    env.reset(seed=0)
+    assert env.step(0)[3] and env.step(0)[3]
+    env.reset(seed=0)  # the sum starts over
+    assert env.step(0)[3]
+
+
+def test_update_readme_markers(tmp_path: Path) -> None:
+    readme = tmp_path / "README.md"
+    readme.write_text("a\n<!-- results:x/y -->\nold\n<!-- /results:x/y -->\nb\n")
+    assert update_readme(readme, {"x/y": "| new |\n", "z": "t"}) == ["x/y"]
+    assert readme.read_text() == "a\n<!-- results:x/y -->\n| new |\n<!-- /results:x/y -->\nb\n"
