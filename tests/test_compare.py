@@ -12,6 +12,7 @@ import pytest
 from sb3_reinforce.compare.cli import _check_resumable, build_parser, main, parse_specs, write_outputs
 from sb3_reinforce.compare.hyperparams import ZooConfigError, load_zoo_config
 from sb3_reinforce.compare.render import update_readme
+from sb3_reinforce.compare.report import PER_RUN_DIR
 from sb3_reinforce.compare.runner import RESULT_COLUMNS, RunSpec
 from sb3_reinforce.seed_reproduction import EPISODE_COLUMNS, RewardFloor
 from sb3_reinforce.seed_reproduction import main as seed_main
@@ -151,11 +152,11 @@ def test_budget_options() -> None:
 
 def test_finished_run_with_other_settings_is_refused(tmp_path: Path) -> None:
     spec = RunSpec("CartPole-v1", "ppo", 0, 1000, 500, 2)
-    (tmp_path / "runs").mkdir()
-    (tmp_path / "runs" / "ppo_seed0.csv").write_text(",".join(RESULT_COLUMNS) + "\n")  # interrupted: no JSON
+    (tmp_path / PER_RUN_DIR).mkdir()
+    (tmp_path / PER_RUN_DIR / "ppo_seed0.csv").write_text(",".join(RESULT_COLUMNS) + "\n")  # interrupted: no JSON
     assert _check_resumable([spec], tmp_path) == [spec]
     other = RunSpec("CartPole-v1", "ppo", 0, 2000, 500, 2)
-    (tmp_path / "runs" / "ppo_seed0.json").write_text(json.dumps({"spec": other.__dict__}))
+    (tmp_path / PER_RUN_DIR / "ppo_seed0.json").write_text(json.dumps({"spec": other.__dict__}))
     with pytest.raises(ValueError, match="other settings"):
         _check_resumable([spec], tmp_path)
     assert _check_resumable([other], tmp_path) == []
@@ -169,10 +170,10 @@ def test_tiny_compare_run_resume_and_append(tmp_path: Path, capsys: pytest.Captu
     common = ["--env", "CartPole-v1", "--seeds", "1", "--budget", "2000", "--eval-freq", "1000", "--eval-episodes", "2"]
     common += ["--workers", "1", "--no-progress", "--out", str(out)]
     main([*common, "--algos", "reinforce"])
-    finished = out / "runs" / "reinforce_seed0.json"
+    finished = out / PER_RUN_DIR / "reinforce_seed0.json"
     mtime = os.stat(finished).st_mtime_ns
     # An interrupted run of PPO: a CSV without a summary. It does not enter the results and is run again.
-    (out / "runs" / "ppo_seed0.csv").write_text(",".join(RESULT_COLUMNS) + "\nCartPole-v1,ppo,0,0,0,0,0,1,0,1,0,1\n")
+    (out / PER_RUN_DIR / "ppo_seed0.csv").write_text(",".join(RESULT_COLUMNS) + "\nCartPole-v1,ppo,0,0,0,0,0,1,0,1,0,1\n")
     write_outputs(out, "CartPole-v1", 475.0)
     assert set(pd.read_csv(out / "results.csv")["algo"]) == {"reinforce"}
 

@@ -5,7 +5,7 @@
 
 Every argument is checked, and every algorithm's hyperparameters are loaded, before any training starts.
 Runs go in parallel processes (one per CPU core by default), each writing its own files under
-``OUT/runs/``; finished runs are skipped when the command is run again, so a comparison can be resumed
+``OUT/per_run/``; finished runs are skipped when the command is run again, so a comparison can be resumed
 after an interruption or extended with more seeds or algorithms. ``OUT/results.csv``, ``OUT/summary.md``
 and ``OUT/learning_curve.png`` are rebuilt from all the finished runs at the end.
 """
@@ -26,7 +26,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from sb3_reinforce.compare.hyperparams import ALGOS, ZooConfigError, load_zoo_config
-from sb3_reinforce.compare.report import load_summaries, plot_learning_curves, summary_table, to_markdown
+from sb3_reinforce.compare.report import PER_RUN_DIR, load_summaries, plot_learning_curves, summary_table, to_markdown
 from sb3_reinforce.compare.runner import RunSpec, run
 from sb3_reinforce.stats import SOLVE_THRESHOLDS
 
@@ -133,7 +133,7 @@ def _check_resumable(specs: list[RunSpec], out_dir: Path) -> list[RunSpec]:
     """The runs still to do; refuse an output folder whose finished runs used other settings."""
     todo = []
     for spec in specs:
-        path = out_dir / "runs" / f"{spec.name}.json"
+        path = out_dir / PER_RUN_DIR / f"{spec.name}.json"
         if not path.exists():
             todo.append(spec)
             continue
@@ -190,7 +190,7 @@ def write_outputs(out_dir: Path, env_id: str, threshold: float | None) -> pd.Dat
     summaries = load_summaries(out_dir)
     if not summaries:
         return None
-    frames = [pd.read_csv(out_dir / "runs" / f"{algo}_seed{seed}.csv") for algo, seed in summaries]
+    frames = [pd.read_csv(out_dir / PER_RUN_DIR / f"{algo}_seed{seed}.csv") for algo, seed in summaries]
     results = pd.concat(frames, ignore_index=True)
     order = {algo: i for i, algo in enumerate(ALGOS)}
     results = results.sort_values(["algo", "seed", "eval_index"], key=lambda c: c.map(order) if c.name == "algo" else c)

@@ -3,7 +3,7 @@
 from their raw files, print each markdown table, and optionally write them into a README between the
 markers ``<!-- results:DIR -->`` and ``<!-- /results:DIR -->``.
 
-A folder with ``runs/`` is a comparison (``sb3-reinforce compare``); a folder with ``episodes_seed*.csv`` is
+A folder with ``per_run/`` is a comparison (``sb3-reinforce compare``); a folder with ``episodes_seed*.csv`` is
 a seed reproduction (``sb3-reinforce seed``).
 """
 
@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from sb3_reinforce.compare.report import plot_seed_curves, seed_table, to_markdown
+from sb3_reinforce.compare.report import PER_RUN_DIR, plot_seed_curves, seed_table, to_markdown
 from sb3_reinforce.stats import SOLVE_THRESHOLDS
 
 __all__ = ["main", "render", "render_seed", "update_readme"]
@@ -61,7 +61,7 @@ def render(out_dir: Path) -> str:
     :return: The markdown table
     """
     out_dir = Path(out_dir)
-    if (out_dir / "runs").is_dir():
+    if (out_dir / PER_RUN_DIR).is_dir():
         from sb3_reinforce.compare.cli import write_outputs
 
         meta_path = out_dir / "comparison.json"
@@ -69,14 +69,14 @@ def render(out_dir: Path) -> str:
             meta = json.loads(meta_path.read_text())
             env_id, threshold = meta["env"], meta["threshold"]
         else:
-            env_id = json.loads(next((out_dir / "runs").glob("*.json")).read_text())["spec"]["env_id"]
+            env_id = json.loads(next((out_dir / PER_RUN_DIR).glob("*.json")).read_text())["spec"]["env_id"]
             threshold = SOLVE_THRESHOLDS.get(env_id)
         if write_outputs(out_dir, env_id, threshold) is None:
             raise ValueError(f"{out_dir} has no finished run yet")
         return (out_dir / "summary.md").read_text()
     if any(out_dir.glob("episodes_seed*.csv")):
         return render_seed(out_dir)
-    raise ValueError(f"{out_dir} is neither a comparison (runs/) nor a seed reproduction (episodes_seed*.csv)")
+    raise ValueError(f"{out_dir} is neither a comparison (per_run/) nor a seed reproduction (episodes_seed*.csv)")
 
 
 def update_readme(readme: Path, tables: dict[str, str]) -> list[str]:

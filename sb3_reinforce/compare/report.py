@@ -19,7 +19,11 @@ import pandas as pd
 
 from sb3_reinforce.stats import bootstrap_ci, first_crossing, iqm, quantile_with_inf, rolling_mean
 
+#: Subfolder of a comparison's output folder with each run's evaluations (CSV) and summary (JSON).
+PER_RUN_DIR = "per_run"
+
 __all__ = [
+    "PER_RUN_DIR",
     "load_summaries",
     "plot_learning_curves",
     "plot_seed_curves",
@@ -54,7 +58,7 @@ def load_summaries(out_dir: Path) -> dict[tuple[str, int], dict]:
     :return: {(algo, seed): summary}
     """
     summaries = {}
-    for path in sorted((Path(out_dir) / "runs").glob("*.json")):
+    for path in sorted((Path(out_dir) / PER_RUN_DIR).glob("*.json")):
         summary = json.loads(path.read_text())
         summaries[(summary["spec"]["algo"], int(summary["spec"]["seed"]))] = summary
     return summaries

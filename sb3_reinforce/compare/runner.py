@@ -23,6 +23,7 @@ from stable_baselines3.common.evaluation import evaluate_policy
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize, sync_envs_normalization
 
 from sb3_reinforce.compare.hyperparams import ZooConfig, load_zoo_config
+from sb3_reinforce.compare.report import PER_RUN_DIR
 from sb3_reinforce.reinforce import REINFORCE
 
 __all__ = ["RESULT_COLUMNS", "ComparisonEvalCallback", "RunSpec", "run"]
@@ -162,7 +163,7 @@ def _make_envs(config: ZooConfig, seed: int) -> tuple[VecEnv, VecEnv]:
 
 def run(spec: RunSpec, out_dir: Path, progress: Any = None) -> dict[str, Any]:
     """
-    Train and evaluate one run; write ``out_dir/runs/<algo>_seed<seed>.csv`` (one row per evaluation,
+    Train and evaluate one run; write ``out_dir/per_run/<algo>_seed<seed>.csv`` (one row per evaluation,
     appended as it goes) and, once finished, ``<algo>_seed<seed>.json`` (the run's summary). A run with a
     JSON file is finished; anything else is started over.
 
@@ -172,7 +173,7 @@ def run(spec: RunSpec, out_dir: Path, progress: Any = None) -> dict[str, Any]:
     :return: The summary written to the JSON file
     """
     th.set_num_threads(1)
-    runs_dir = out_dir / "runs"
+    runs_dir = out_dir / PER_RUN_DIR
     runs_dir.mkdir(parents=True, exist_ok=True)
     csv_path = runs_dir / f"{spec.name}.csv"
     with csv_path.open("w", newline="") as f:
