@@ -32,30 +32,28 @@ def box(draw: st.DrawFn, action: bool) -> spaces.Box:
     return spaces.Box(low, low + draw(st.floats(0.1, 10)), shape=shape, dtype=dtype)
 
 
-@st.composite
-def observation_spaces(draw: st.DrawFn) -> spaces.Space:
-    kind = draw(st.sampled_from(["box", "discrete", "multidiscrete", "multibinary", "dict"]))
+def space(draw: st.DrawFn, action: bool) -> spaces.Space:
+    """A supported observation (``action=False``, Dict included) or action space."""
+    kind = draw(st.sampled_from(["box", "discrete", "multidiscrete", "multibinary", *([] if action else ["dict"])]))
     if kind == "box":
-        return box(draw, action=False)
+        return box(draw, action=action)
     if kind == "discrete":
         return spaces.Discrete(draw(st.integers(1, 5)))
     if kind == "multidiscrete":
         return spaces.MultiDiscrete(draw(st.lists(st.integers(1, 4), min_size=1, max_size=3)))
     if kind == "multibinary":
-        return spaces.MultiBinary(draw(st.integers(1, 4)))
+        return spaces.MultiBinary(draw(st.integers(1, 3 if action else 4)))
     return spaces.Dict({"a": box(draw, action=False), "b": spaces.Discrete(draw(st.integers(1, 4)))})
 
 
 @st.composite
+def observation_spaces(draw: st.DrawFn) -> spaces.Space:
+    return space(draw, action=False)
+
+
+@st.composite
 def action_spaces(draw: st.DrawFn) -> spaces.Space:
-    kind = draw(st.sampled_from(["box", "discrete", "multidiscrete", "multibinary"]))
-    if kind == "box":
-        return box(draw, action=True)
-    if kind == "discrete":
-        return spaces.Discrete(draw(st.integers(1, 5)))
-    if kind == "multidiscrete":
-        return spaces.MultiDiscrete(draw(st.lists(st.integers(1, 4), min_size=1, max_size=3)))
-    return spaces.MultiBinary(draw(st.integers(1, 3)))
+    return space(draw, action=True)
 
 
 class FuzzEnv(gym.Env):

@@ -16,6 +16,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
 
 from sb3_reinforce.stats import bootstrap_ci, first_crossing, iqm, quantile_with_inf, rolling_mean
 
@@ -125,6 +127,20 @@ def _mean_ci_band(curves: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return mean, np.array([b[0] for b in bounds]), np.array([b[1] for b in bounds])
 
 
+def _finish_plot(fig: Figure, ax: Axes, threshold: float | None, xlabel: str, ylabel: str, title: str, path: Path) -> None:
+    """Draw the solve threshold (if any), label, save the PNG and close the figure."""
+    if threshold is not None:
+        ax.axhline(threshold, color="black", linestyle="--", linewidth=1, label=f"solved ({threshold:g})")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.legend()
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def plot_learning_curves(results: pd.DataFrame, threshold: float | None, path: Path, title: str) -> None:
     """
     Mean deterministic evaluation return over seeds and its 95% bootstrap CI, x in environment steps, one
@@ -143,16 +159,7 @@ def plot_learning_curves(results: pd.DataFrame, threshold: float | None, path: P
         n_seeds = table.shape[1]
         (line,) = ax.plot(steps, mean, label=f"{_ALGO_NAMES.get(str(algo), algo)} ({n_seeds} seeds)")
         ax.fill_between(steps, low, high, color=line.get_color(), alpha=0.2)
-    if threshold is not None:
-        ax.axhline(threshold, color="black", linestyle="--", linewidth=1, label=f"solved ({threshold:g})")
-    ax.set_xlabel("environment steps")
-    ax.set_ylabel("evaluation return (deterministic)")
-    ax.set_title(title)
-    ax.legend()
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    _finish_plot(fig, ax, threshold, "environment steps", "evaluation return (deterministic)", title, path)
 
 
 def seed_table(episodes: pd.DataFrame, threshold: float, window: int = 100) -> pd.DataFrame:
@@ -208,12 +215,4 @@ def plot_seed_curves(episodes: pd.DataFrame, threshold: float, path: Path, title
     fig, ax = plt.subplots(figsize=(7, 4.5))
     (line,) = ax.plot(x, mean, label=f"seed's agent ({curves.shape[0]} seeds)")
     ax.fill_between(x, low, high, color=line.get_color(), alpha=0.2)
-    ax.axhline(threshold, color="black", linestyle="--", linewidth=1, label=f"solved ({threshold:g})")
-    ax.set_xlabel("training episodes")
-    ax.set_ylabel(f"training return, {window}-episode moving mean")
-    ax.set_title(title)
-    ax.legend()
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    _finish_plot(fig, ax, threshold, "training episodes", f"training return, {window}-episode moving mean", title, path)
