@@ -29,6 +29,13 @@ class NonFiniteError(FloatingPointError):
     """An environment returned a NaN/inf reward or observation, or the loss/gradient became non-finite."""
 
 
+def _non_finite_parts(obs: Any) -> list[tuple[str | None, np.ndarray]]:
+    """The floating-point parts of an observation (an array, or a dict of arrays) that hold a NaN or an inf."""
+    parts = obs.items() if isinstance(obs, dict) else [(None, obs)]
+    arrays = [(key, np.asarray(value)) for key, value in parts]
+    return [(key, a) for key, a in arrays if np.issubdtype(a.dtype, np.floating) and not np.isfinite(a).all()]
+
+
 class REINFORCE(OnPolicyAlgorithm):
     """
     REINFORCE: Monte-Carlo policy gradient (Williams, 1992), optionally with a learned value baseline.
@@ -221,27 +228,23 @@ class REINFORCE(OnPolicyAlgorithm):
                 f"Environment {env_idx} returned a non-finite reward ({rewards[env_idx]}) at timestep {self.num_timesteps}: "
                 "REINFORCE cannot learn from it (check the environment's reward, or wrap it to clip rewards)."
             )
-        for key, obs in new_obs.items() if isinstance(new_obs, dict) else [(None, new_obs)]:
-            if np.issubdtype(obs.dtype, np.floating) and not np.isfinite(obs).all():
-                env_idx = int(np.flatnonzero(~np.isfinite(obs.reshape(len(obs), -1)).all(axis=1))[0])
-                where = f" (key {key!r})" if key is not None else ""
-                raise NonFiniteError(
-                    f"Environment {env_idx} returned a non-finite observation{where} at timestep {self.num_timesteps}: "
-                    f"{obs[env_idx]}. REINFORCE cannot learn from it "
-                    "(check the environment, or use VecCheckNan to find the cause)."
-                )
+        for key, obs in _non_finite_parts(new_obs):
+            env_idx = int(np.flatnonzero(~np.isfinite(obs.reshape(len(obs), -1)).all(axis=1))[0])
+            self._raise_non_finite_obs("observation", env_idx, key, obs[env_idx], "REINFORCE cannot learn from it")
 
     def _check_finite_terminal(self, env_idx: int, terminal_obs: Any) -> None:
         # The terminal observation of a truncated episode is read only here, to bootstrap with V(s_T).
-        for key, obs in terminal_obs.items() if isinstance(terminal_obs, dict) else [(None, terminal_obs)]:
-            obs = np.asarray(obs)
-            if np.issubdtype(obs.dtype, np.floating) and not np.isfinite(obs).all():
-                where = f" (key {key!r})" if key is not None else ""
-                raise NonFiniteError(
-                    f"Environment {env_idx} returned a non-finite terminal observation{where} at timestep "
-                    f"{self.num_timesteps}: {obs}. REINFORCE cannot bootstrap the truncated episode from it "
-                    "(check the environment, or use VecCheckNan to find the cause)."
-                )
+        for key, obs in _non_finite_parts(terminal_obs):
+            self._raise_non_finite_obs(
+                "terminal observation", env_idx, key, obs, "REINFORCE cannot bootstrap the truncated episode from it"
+            )
+
+    def _raise_non_finite_obs(self, what: str, env_idx: int, key: str | None, value: np.ndarray, consequence: str) -> None:
+        where = f" (key {key!r})" if key is not None else ""
+        raise NonFiniteError(
+            f"Environment {env_idx} returned a non-finite {what}{where} at timestep {self.num_timesteps}: {value}. "
+            f"{consequence} (check the environment, or use VecCheckNan to find the cause)."
+        )
 
     def _bootstrap_truncated(self, rewards: np.ndarray, dones: np.ndarray, infos: list[dict[str, Any]]) -> np.ndarray:
         """
