@@ -16,6 +16,7 @@ from stable_baselines3.common.vec_env import VecEnv
 from torch.nn import functional as F
 
 from sb3_reinforce.buffers import DictEpisodeRolloutBuffer, EpisodeRolloutBuffer
+from sb3_reinforce.native_memory import HeapTrimmer
 from sb3_reinforce.policies import CnnPolicy, MlpPolicy, MultiInputPolicy, ReinforcePolicy
 from sb3_reinforce.returns import normalize_returns
 from sb3_reinforce.rng import get_rng_state, set_rng_state
@@ -57,10 +58,13 @@ class REINFORCE(OnPolicyAlgorithm):
     :param policy: The policy model to use (MlpPolicy, CnnPolicy, MultiInputPolicy, or a class)
     :param env: The environment to learn from (if registered in Gym, can be str)
     :param learning_rate: The learning rate, it can be a function of the current progress remaining (from 1 to 0)
-    :param n_episodes: Minimum number of whole episodes per gradient step (the seed used 1). With
-        ``n_envs > 1`` several episodes may end at the same step, so a batch can hold more.
-    :param min_steps: Minimum number of environment steps per gradient step: episodes are added to the batch
-        until both ``n_episodes`` and ``min_steps`` are reached (0: count episodes only)
+    :param n_episodes: Number of whole episodes to collect per environment per gradient step (the seed
+        used 1, with one environment). As SB3's ``n_steps``, it counts per environment: a batch holds at
+        least ``n_episodes * n_envs`` finished episodes (several may end at the same step, so a batch can
+        hold more).
+    :param min_steps: Minimum number of environment steps per gradient step, all environments together:
+        episodes are added to the batch until both ``n_episodes * n_envs`` episodes and ``min_steps`` steps
+        are reached (0: count episodes only)
     :param gamma: Discount factor, in [0, 1]
     :param baseline: ``None`` for plain REINFORCE (no value network is built), or ``"value"`` for REINFORCE
         with a learned state-value baseline ``V(s)`` trained by regression on the returns
@@ -102,6 +106,10 @@ class REINFORCE(OnPolicyAlgorithm):
         "MultiInputPolicy": MultiInputPolicy,
     }
     rollout_buffer: EpisodeRolloutBuffer  # type: ignore[assignment]
+    #: Environment steps between two returns of the C heap's free memory to the OS (glibc ``malloc_trim``),
+    #: or None for never. Whole-episode batches allocate a new size at every update, and without this the
+    #: resident memory of a long run keeps growing (see :mod:`sb3_reinforce.native_memory`).
+    heap_trim_interval: ClassVar[int | None] = 10_000
 
     def __init__(
         self,
@@ -192,7 +200,7 @@ class REINFORCE(OnPolicyAlgorithm):
             device=self.device,
             gamma=self.gamma,
             n_envs=self.n_envs,
-            n_episodes=self.n_episodes,
+            n_episodes=self.n_episodes * self.n_envs,  # per environment, as SB3's n_steps
             min_steps=self.min_steps,
             max_steps=self.max_rollout_steps,
             **buffer_kwargs,
@@ -205,6 +213,10 @@ class REINFORCE(OnPolicyAlgorithm):
         )
         self.policy = self.policy.to(self.device)
         self._maybe_recommend_cpu("ReinforcePolicy")
+        self._heap_trimmer = HeapTrimmer(self.heap_trim_interval)
+
+    def _excluded_save_params(self) -> list[str]:
+        return [*super()._excluded_save_params(), "_heap_trimmer"]
 
     def _setup_learn(
         self,
@@ -286,6 +298,8 @@ class REINFORCE(OnPolicyAlgorithm):
         """
         assert self._last_obs is not None, "No previous observation was provided"
         assert isinstance(rollout_buffer, EpisodeRolloutBuffer), "REINFORCE needs an EpisodeRolloutBuffer"
+        # The last update's tensors are freed by now: give the heap's free pages back (every heap_trim_interval steps).
+        self._heap_trimmer.step(self.num_timesteps)
         # Switch to eval mode (this affects batch norm / dropout)
         self.policy.set_training_mode(False)
         n_steps = 0

@@ -52,8 +52,11 @@ def test_no_transition_lost_or_used_twice(n_envs: int, n_episodes: int) -> None:
     assert len(acted) == len(trained) + still_running
     assert keys <= {(int(e), int(s)) for e, s, _ in acted}
     assert model.num_timesteps == len(acted)
+    # n_episodes counts per environment, as SB3's n_steps: a batch holds n_episodes * n_envs episodes or more
+    assert recorder.batch_lengths, "no batch was trained"
     for lengths_ in recorder.batch_lengths:
-        assert len(lengths_) >= n_episodes
+        assert len(lengths_) >= n_episodes * n_envs
+    assert min(len(lengths_) for lengths_ in recorder.batch_lengths) < n_episodes * (n_envs + 1)
     if n_envs == 1:
         assert still_running == 0, "with one env a batch ends exactly on an episode end"
 

@@ -98,7 +98,7 @@ def sample_reinforce_params(
     sampled: dict[str, Any] = {
         "learning_rate": trial.suggest_float("learning_rate", 1e-4, 3e-2, log=True),
         "one_minus_gamma": trial.suggest_float("one_minus_gamma", 1e-3, 0.1, log=True),
-        "n_episodes": trial.suggest_categorical("n_episodes", [1, 2, 4, 8, 16]),
+        "n_episodes": trial.suggest_categorical("n_episodes", [1, 2, 4, 8]),  # per env: batch of n_episodes * n_envs
         "net_arch": trial.suggest_categorical("net_arch", list(NET_ARCHS)),
         "activation_fn": trial.suggest_categorical("activation_fn", list(ACTIVATIONS)),
         "baseline": trial.suggest_categorical("baseline", ["none", "value"]),
