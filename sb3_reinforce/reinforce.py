@@ -234,6 +234,13 @@ class REINFORCE(OnPolicyAlgorithm):
         return result
 
     def _check_finite(self, new_obs: Any, rewards: np.ndarray) -> None:
+        # Fast path, once per step: a NaN/inf anywhere makes a sum non-finite (a sum that overflows only
+        # sends us on to the exact checks below, which then find nothing).
+        parts = new_obs.values() if isinstance(new_obs, dict) else (new_obs,)
+        if np.isfinite(rewards.sum()) and all(
+            isinstance(part, np.ndarray) and (part.dtype.kind != "f" or np.isfinite(part.sum())) for part in parts
+        ):
+            return
         if not np.isfinite(rewards).all():
             env_idx = int(np.flatnonzero(~np.isfinite(rewards))[0])
             raise NonFiniteError(

@@ -74,6 +74,22 @@ def test_non_finite_env_output_raises(what: str) -> None:
     assert all(th.equal(a, b) for a, b in zip(before, model.policy.parameters(), strict=True))
 
 
+def test_finite_but_huge_env_output_is_accepted() -> None:
+    # The finite check sums each step's rewards and observations first: sums that overflow to inf must not be
+    # taken for a NaN/inf (the exact check after them finds every value finite).
+    model = REINFORCE("MlpPolicy", "CartPole-v1", seed=0)
+    huge_obs, huge_rewards = np.full((2, 4), 3e38, dtype=np.float32), np.full(2, 1.7e308)
+    assert not np.isfinite(huge_obs.sum()) and not np.isfinite(huge_rewards.sum())  # the sums overflow
+    model._check_finite(huge_obs, huge_rewards)  # no error
+    model._check_finite({"a": huge_obs, "b": np.zeros((2, 1), dtype=np.uint8)}, huge_rewards)
+    # Control: one NaN among the huge values is found
+    huge_obs[1, 2] = math.nan
+    with pytest.raises(NonFiniteError, match="Environment 1 returned a non-finite observation"):
+        model._check_finite(huge_obs, huge_rewards)
+    with pytest.raises(NonFiniteError, match="key 'a'"):
+        model._check_finite({"a": huge_obs, "b": np.zeros((2, 1), dtype=np.uint8)}, huge_rewards)
+
+
 def test_overflowing_loss_leaves_weights_unchanged() -> None:
     class HugeReward(CountingEnv):
         def step(self, action: int) -> tuple:
