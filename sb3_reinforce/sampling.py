@@ -64,19 +64,41 @@ def _tanh(x: np.ndarray) -> None:
 _NUMPY_ACTIVATIONS = {nn.Tanh: _tanh, nn.ReLU: _relu}
 
 
-# The noise comes from torch's global generator, the one stream SB3 seeds (``set_random_seed``) and
-# ``REINFORCE.save`` stores: a sampler holds no random state, so rebuilding it (every rollout, or when a
-# stopped rollout resumes) changes no draw, and an interrupted run continues exactly.
-def _exponential(shape: tuple[int, ...]) -> np.ndarray:
-    return th.empty(shape, dtype=th.float64).exponential_().numpy()
+class _Noise:
+    """
+    Noise from torch's global generator, the one stream SB3 seeds (``set_random_seed``) and ``REINFORCE.save``
+    stores: a sampler holds no random state, so rebuilding it (every rollout, or when a stopped rollout
+    resumes) changes no draw, and an interrupted run continues exactly.
 
+    The draws are made in place into one preallocated tensor per shape (a NumPy view of it is returned, valid
+    until the next draw of that shape): the same values as ``th.empty(shape).exponential_()`` and co., at a
+    fraction of the cost of allocating a tensor at every step.
+    """
 
-def _uniform(shape: tuple[int, ...]) -> np.ndarray:
-    return th.rand(shape, dtype=th.float64).numpy()
+    def __init__(self) -> None:
+        self._buffers: dict[tuple[int, ...], tuple[th.Tensor, np.ndarray]] = {}
 
+    def _buffer(self, shape: tuple[int, ...]) -> tuple[th.Tensor, np.ndarray]:
+        buffer = self._buffers.get(shape)
+        if buffer is None:
+            tensor = th.empty(shape, dtype=th.float64)
+            buffer = self._buffers[shape] = (tensor, tensor.numpy())
+        return buffer
 
-def _normal(shape: tuple[int, ...]) -> np.ndarray:
-    return th.randn(shape, dtype=th.float64).numpy()
+    def exponential(self, shape: tuple[int, ...]) -> np.ndarray:
+        tensor, array = self._buffer(shape)
+        tensor.exponential_()
+        return array
+
+    def uniform(self, shape: tuple[int, ...]) -> np.ndarray:
+        tensor, array = self._buffer(shape)
+        tensor.uniform_()
+        return array
+
+    def normal(self, shape: tuple[int, ...]) -> np.ndarray:
+        tensor, array = self._buffer(shape)
+        tensor.normal_()
+        return array
 
 
 class FastSampler:
@@ -94,6 +116,7 @@ class FastSampler:
         self.action_dist = policy.action_dist
         # Each layer: (W^T, b, activation or None), NumPy views of the parameters; None: run the torch modules
         self.numpy_layers = self._numpy_actor(policy)
+        self.noise = _Noise()
         is_gaussian = isinstance(self.action_dist, DiagGaussianDistribution)
         self.log_std = policy.log_std.detach().cpu().numpy() if is_gaussian else None
         if isinstance(self.action_dist, MultiCategoricalDistribution):
@@ -154,17 +177,17 @@ class FastSampler:
         :return: Actions with SB3's dtypes: int64 (categorical), float32 (Bernoulli, Gaussian)
         """
         if isinstance(self.action_dist, CategoricalDistribution):
-            return np.argmax(params - np.log(_exponential(params.shape)), axis=1)
+            return np.argmax(params - np.log(self.noise.exponential(params.shape)), axis=1)
         if isinstance(self.action_dist, MultiCategoricalDistribution):
             grid = self._padded.get(len(params))
             if grid is None:
                 grid = self._padded[len(params)] = np.full((len(params), *self._grid), -np.inf)
-            grid.reshape(len(params), -1)[:, self._grid_index] = params - np.log(_exponential(params.shape))
+            grid.reshape(len(params), -1)[:, self._grid_index] = params - np.log(self.noise.exponential(params.shape))
             return np.argmax(grid, axis=2)
         if isinstance(self.action_dist, BernoulliDistribution):
-            return (_uniform(params.shape) < expit(params)).astype(np.float32)
+            return (self.noise.uniform(params.shape) < expit(params)).astype(np.float32)
         assert self.log_std is not None
-        return (params + np.exp(self.log_std) * _normal(params.shape)).astype(np.float32)
+        return (params + np.exp(self.log_std) * self.noise.normal(params.shape)).astype(np.float32)
 
     def __call__(self, obs: Any) -> np.ndarray:
         """

@@ -198,3 +198,25 @@ def test_fast_and_sb3_rollouts_both_learn_a_batch() -> None:
         batches.append({name: (array.shape[1:], array.dtype) for name, array in buffer._batch.items()})
         assert buffer.episode_lengths.sum() == buffer.batch_size
     assert batches[0] == batches[1]
+
+
+@pytest.mark.parametrize("shape", [(8, 2), (3, 5), (1, 1)])
+def test_in_place_noise_is_torchs_stream(shape: tuple[int, int]) -> None:
+    # The sampler draws into preallocated tensors: the values must be those of torch's allocating calls
+    # (the stream that set_random_seed fixes and save/load restores), draw for draw.
+    from sb3_reinforce.sampling import _Noise
+
+    noise = _Noise()
+    th.manual_seed(1)
+    expected = [
+        th.empty(shape, dtype=th.float64).exponential_().numpy().copy(),
+        th.rand(shape, dtype=th.float64).numpy().copy(),
+        th.randn(shape, dtype=th.float64).numpy().copy(),
+        th.empty(shape, dtype=th.float64).exponential_().numpy().copy(),
+    ]
+    th.manual_seed(1)
+    drawn = [noise.exponential(shape).copy(), noise.uniform(shape).copy(), noise.normal(shape).copy()]
+    drawn.append(noise.exponential(shape).copy())  # the same buffer again: fresh values
+    for want, got in zip(expected, drawn, strict=True):
+        np.testing.assert_array_equal(got, want)
+    assert not np.array_equal(drawn[0], drawn[3])
