@@ -158,9 +158,12 @@ def main(argv: list[str] | None = None) -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     todo = [s for s in range(args.seeds) if not _finished(args.out / f"episodes_seed{s}.csv", args.episodes)]
     jobs = [(args.env, s, args.episodes, args.out, args.reward_floor) for s in todo]
-    with mp.get_context("spawn").Pool(max(1, min(args.workers, len(jobs) or 1))) as pool:
-        pool.starmap(run_seed, jobs)
+    from sb3_reinforce.compare.cli import sigterm_as_keyboard_interrupt
     from sb3_reinforce.compare.render import render_seed
+
+    # The pool is terminated on the way out of the block (Ctrl-C or SIGTERM): no worker outlives this process.
+    with sigterm_as_keyboard_interrupt(), mp.get_context("spawn").Pool(max(1, min(args.workers, len(jobs) or 1))) as pool:
+        pool.starmap(run_seed, jobs)
 
     print(render_seed(args.out))
     print(f"{len(todo)} seed(s) trained, {args.seeds - len(todo)} already done: {args.out}")

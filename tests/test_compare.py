@@ -226,3 +226,34 @@ def test_update_readme_markers(tmp_path: Path) -> None:
     readme.write_text("a\n<!-- results:x/y -->\nold\n<!-- /results:x/y -->\nb\n")
     assert update_readme(readme, {"x/y": "| new |\n", "z": "t"}) == ["x/y"]
     assert readme.read_text() == "a\n<!-- results:x/y -->\n| new |\n<!-- /results:x/y -->\nb\n"
+
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_stopping_compare_stops_its_workers(tmp_path: Path, sig: str) -> None:
+    # Ctrl-C (SIGINT to the process group) or `kill PID` (SIGTERM to the main process only): the workers must
+    # not outlive the command, and the command exits as interrupted (130).
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    import psutil
+
+    cmd = [sys.executable, "-m", "sb3_reinforce.compare", "--env", "CartPole-v1", "--algos", "reinforce"]
+    cmd += ["--seeds", "1", "--budget", "10000000", "--workers", "1", "--no-progress", "--out", str(tmp_path / "out")]
+    proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    parent = psutil.Process(proc.pid)
+    deadline = time.monotonic() + 120
+    # Wait until a run is training: its per-run CSV exists (written at the first evaluation, step 0)
+    while not list((tmp_path / "out").glob(f"{PER_RUN_DIR}/*.csv")):
+        assert proc.poll() is None and time.monotonic() < deadline, proc.stdout.read() if proc.stdout else ""
+        time.sleep(0.5)
+    children = parent.children(recursive=True)
+    assert children
+    if sig == "SIGINT":
+        os.killpg(proc.pid, signal.SIGINT)
+    else:
+        proc.send_signal(signal.SIGTERM)
+    assert proc.wait(timeout=60) == 130
+    _, alive = psutil.wait_procs(children, timeout=30)
+    assert not alive, f"workers left running: {alive}"

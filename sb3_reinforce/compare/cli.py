@@ -11,12 +11,14 @@ and ``OUT/learning_curve.png`` are rebuilt from all the finished runs at the end
 """
 
 import argparse
+import contextlib
 import json
 import multiprocessing as mp
 import os
 import queue
 import signal
 import sys
+from collections.abc import Iterator
 from multiprocessing.managers import SyncManager
 from pathlib import Path
 from typing import Any
@@ -143,6 +145,23 @@ def _check_resumable(specs: list[RunSpec], out_dir: Path) -> list[RunSpec]:
     return todo
 
 
+@contextlib.contextmanager
+def sigterm_as_keyboard_interrupt() -> Iterator[None]:
+    """
+    Within the block, SIGTERM (``kill PID``) raises ``KeyboardInterrupt`` in the main process, as Ctrl-C does, so
+    that a worker pool is terminated on the way out instead of being left running without its parent.
+    """
+
+    def _raise(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt(f"signal {signum}")
+
+    previous = signal.signal(signal.SIGTERM, _raise)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def _ignore_sigint() -> None:
     # Ctrl-C reaches the whole process group: only the main process handles it (it stops the workers itself).
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -180,7 +199,7 @@ def _run_all(todo: list[RunSpec], out_dir: Path, workers: int, show_progress: bo
 def write_outputs(out_dir: Path, env_id: str, threshold: float | None) -> pd.DataFrame | None:
     """
     Rebuild ``results.csv``, ``summary.csv``, ``summary.md`` and ``learning_curve.png`` from the finished
-    runs in ``out_dir/runs``.
+    runs in ``out_dir / PER_RUN_DIR``.
 
     :param out_dir: The comparison's output folder
     :param env_id: The environment (for the plot's title)
@@ -221,7 +240,8 @@ def main(argv: list[str] | None = None) -> None:
     interrupted = False
     try:
         if todo:
-            _run_all(todo, out_dir, args.workers, show_progress=not args.no_progress)
+            with sigterm_as_keyboard_interrupt():
+                _run_all(todo, out_dir, args.workers, show_progress=not args.no_progress)
     except KeyboardInterrupt:
         interrupted = True
     table = write_outputs(out_dir, args.env, threshold)
@@ -230,7 +250,7 @@ def main(argv: list[str] | None = None) -> None:
             print(table.to_string(index=False))
         print(f"Saved {out_dir / 'results.csv'}, {out_dir / 'summary.md'}, {out_dir / 'learning_curve.png'}")
     if interrupted:
-        print(f"Interrupted: the finished runs are kept in {out_dir / 'runs'}; run the same command to resume.")
+        print(f"Interrupted: the finished runs are kept in {out_dir / PER_RUN_DIR}; run the same command to resume.")
         sys.exit(130)
 
 
