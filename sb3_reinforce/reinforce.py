@@ -1,5 +1,6 @@
 import io
 import pathlib
+from collections.abc import Iterable
 from typing import Any, ClassVar, TypeVar
 
 import numpy as np
@@ -35,6 +36,14 @@ def _non_finite_parts(obs: Any) -> list[tuple[str | None, np.ndarray]]:
     parts = obs.items() if isinstance(obs, dict) else [(None, obs)]
     arrays = [(key, np.asarray(value)) for key, value in parts]
     return [(key, a) for key, a in arrays if np.issubdtype(a.dtype, np.floating) and not np.isfinite(a).all()]
+
+
+def _total_grad_norm(parameters: Iterable[th.Tensor]) -> th.Tensor:
+    """The global 2-norm of the parameters' gradients, as ``clip_grad_norm_`` computes it, without clipping."""
+    grads = [p.grad for p in parameters if p.grad is not None]
+    if hasattr(th.nn.utils, "get_total_norm"):  # torch >= 2.6
+        return th.nn.utils.get_total_norm(grads)
+    return th.linalg.vector_norm(th.stack([th.linalg.vector_norm(g) for g in grads])) if grads else th.zeros(())
 
 
 class REINFORCE(OnPolicyAlgorithm):
@@ -391,8 +400,10 @@ class REINFORCE(OnPolicyAlgorithm):
 
         self.policy.optimizer.zero_grad()
         loss.backward()
-        max_norm = float("inf") if self.max_grad_norm is None else self.max_grad_norm
-        grad_norm = th.nn.utils.clip_grad_norm_(self.policy.parameters(), max_norm)
+        if self.max_grad_norm is not None:
+            grad_norm = th.nn.utils.clip_grad_norm_(self.policy.parameters(), self.max_grad_norm)
+        else:  # the norm only (logged, and checked below): no clipping, so no rescaling of every gradient
+            grad_norm = _total_grad_norm(self.policy.parameters())
         if not (th.isfinite(loss) and th.isfinite(grad_norm)):
             self.policy.optimizer.zero_grad()
             raise NonFiniteError(

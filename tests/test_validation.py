@@ -107,3 +107,20 @@ def test_zero_variance_returns_stay_finite() -> None:
     # One-step episodes with equal rewards: every standardized return is 0, no NaN.
     model = REINFORCE("MlpPolicy", DummyVecEnv([lambda: CountingEnv(0, (1,))]), n_episodes=3, seed=0).learn(60)
     assert all(np.isfinite(p.detach().numpy()).all() for p in model.policy.parameters())
+
+
+@pytest.mark.parametrize("torch_has_get_total_norm", [True, False])
+def test_unclipped_grad_norm_equals_clip_grad_norms(torch_has_get_total_norm: bool, monkeypatch) -> None:
+    # Without clipping, the logged and checked gradient norm is computed without clip_grad_norm_ (torch < 2.6
+    # has no get_total_norm: the fallback must agree too), and non-finite gradients still show in it.
+    from sb3_reinforce.reinforce import _total_grad_norm
+
+    if not torch_has_get_total_norm:
+        monkeypatch.delattr(th.nn.utils, "get_total_norm", raising=False)
+    net = th.nn.Sequential(th.nn.Linear(4, 8), th.nn.Tanh(), th.nn.Linear(8, 2), th.nn.Linear(2, 1))
+    net[3].requires_grad_(False)  # a parameter without gradient is skipped, as clip_grad_norm_ does
+    net(th.randn(5, 4)).sum().backward()
+    expected = th.nn.utils.clip_grad_norm_(net.parameters(), float("inf"))
+    assert th.allclose(_total_grad_norm(net.parameters()), expected, rtol=1e-6)
+    net[0].weight.grad[0, 0] = math.nan
+    assert not th.isfinite(_total_grad_norm(net.parameters()))
