@@ -11,6 +11,7 @@ Usage::
 
     python benchmarks/memory.py                                   # reinforce 100k and 1M, ppo 100k
     python benchmarks/memory.py --runs reinforce:2000 ppo:2048    # seconds
+    python benchmarks/memory.py --runs random:100000 random:1000000   # the environment alone, random actions
 """
 
 import argparse
@@ -21,6 +22,9 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 RESULTS = Path(__file__).parent / "results" / "memory.csv"
 DEFAULT_RUNS = ["reinforce:100000", "reinforce:1000000", "ppo:100000"]
@@ -37,6 +41,8 @@ def child(algo: str, steps: int, env_id: str, n_envs: int, seed: int) -> dict[st
 
     th.set_num_threads(1)
     env = make_vec_env(env_id, n_envs=n_envs, seed=seed)
+    if algo == "random":
+        return _random_actions(env, steps, seed)
     algo_class = {"reinforce": REINFORCE, "reinforce_value": REINFORCE, "ppo": PPO}[algo]
     kwargs = {"baseline": "value"} if algo == "reinforce_value" else {}
     model = algo_class("MlpPolicy", env, seed=seed, device="cpu", **kwargs)
@@ -63,9 +69,41 @@ def child(algo: str, steps: int, env_id: str, n_envs: int, seed: int) -> dict[st
     return result
 
 
+def _random_actions(env: Any, steps: int, seed: int) -> dict[str, float | int | str]:
+    """The environment alone (random actions, no model, no torch work): what it adds to the RSS by itself."""
+    import psutil
+
+    env.action_space.seed(seed)
+    env.reset()
+    rss_before = psutil.Process().memory_info().rss
+    start = time.perf_counter()
+    for _ in range(max(1, steps // env.num_envs)):
+        env.step(np.array([env.action_space.sample() for _ in range(env.num_envs)]))
+    seconds = time.perf_counter() - start
+    rss_after = psutil.Process().memory_info().rss
+    peak = max(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 2**10, rss_after)
+    result = {
+        "algo": "random",
+        "env_id": env.envs[0].spec.id if hasattr(env, "envs") else "",
+        "n_envs": env.num_envs,
+        "steps": max(1, steps // env.num_envs) * env.num_envs,
+        "seconds": round(seconds, 1),
+        "rss_before_learn_mib": round(rss_before / 2**20, 1),
+        "rss_after_learn_mib": round(rss_after / 2**20, 1),
+        "peak_rss_mib": round(peak / 2**20, 1),
+    }
+    print(json.dumps(result))
+    return result
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--runs", nargs="+", default=DEFAULT_RUNS, help="ALGO:STEPS, ALGO in reinforce, reinforce_value, ppo")
+    parser.add_argument(
+        "--runs",
+        nargs="+",
+        default=DEFAULT_RUNS,
+        help="ALGO:STEPS, ALGO in reinforce, reinforce_value, ppo, random (the env alone)",
+    )
     parser.add_argument("--env", default="LunarLander-v3")
     parser.add_argument("--n-envs", type=int, default=1)
     parser.add_argument("--seed", type=int, default=0)

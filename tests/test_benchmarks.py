@@ -54,3 +54,16 @@ def test_memory_tiny_budget(tmp_path: Path) -> None:
     (row,) = read_rows(out)
     assert row["algo"] == "reinforce" and int(row["steps"]) >= 300
     assert float(row["peak_rss_mib"]) >= float(row["rss_before_learn_mib"]) > 0
+
+
+def test_memory_env_alone_tiny_budget(tmp_path: Path) -> None:
+    memory = load("memory")
+    out = tmp_path / "memory.csv"
+    threads = th.get_num_threads()
+    try:
+        memory.main(["--runs", "random:300", "--env", "CartPole-v1", "--n-envs", "2", "--in-process", "--out", str(out)])
+    finally:
+        th.set_num_threads(threads)
+    (row,) = read_rows(out)
+    assert (row["algo"], row["env_id"], row["n_envs"], row["steps"]) == ("random", "CartPole-v1", "2", "300")
+    assert float(row["peak_rss_mib"]) >= float(row["rss_before_learn_mib"]) > 0
