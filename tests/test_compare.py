@@ -91,6 +91,28 @@ def test_zoo_configs_parsed_as_the_zoo() -> None:
     assert reinforce.source.name == "reinforce.yml" and reinforce.model_kwargs["policy"] == "MlpPolicy"
 
 
+@pytest.mark.parametrize("config", sorted(Path(__file__).parent.parent.glob("benchmarks/configs/*.yml")), ids=lambda p: p.name)
+def test_benchmark_configs_load_and_build(config: Path) -> None:
+    # The committed benchmark configs are read again by every run of a resumed comparison: each entry must
+    # parse and build its model.
+    import yaml
+
+    from sb3_reinforce import REINFORCE
+
+    env_ids = list(yaml.load(config.read_text(), Loader=yaml.UnsafeLoader))
+    assert env_ids
+    for env_id in env_ids:
+        entry = load_zoo_config("reinforce", env_id, config)
+        REINFORCE(env=gym.make(env_id), **entry.model_kwargs)
+
+
+def test_malformed_config_is_a_config_error(tmp_path: Path) -> None:
+    path = tmp_path / "r.yml"
+    path.write_text("Acrobot-v1: 1e6, where: x). oops\n  n_envs: 1\n")
+    with pytest.raises(ZooConfigError, match="not valid YAML"):
+        load_zoo_config("reinforce", "Acrobot-v1", path)
+
+
 def test_reinforce_config_override(tmp_path: Path) -> None:
     path = tmp_path / "r.yml"
     path.write_text(

@@ -101,8 +101,11 @@ def load_zoo_config(algo: str, env_id: str, path: Path | None = None) -> ZooConf
     path = default_config_path(algo) if path is None else Path(path)
     if not path.is_file():
         raise ZooConfigError(f"{algo.upper()} hyperparameter file not found: {path}")
-    with path.open() as f:
-        entries = yaml.load(f, Loader=yaml.UnsafeLoader)  # as rl_zoo3 (!!float, python tags)
+    try:
+        with path.open() as f:
+            entries = yaml.load(f, Loader=yaml.UnsafeLoader)  # as rl_zoo3 (!!float, python tags)
+    except yaml.YAMLError as error:
+        raise ZooConfigError(f"{algo.upper()} hyperparameter file {path} is not valid YAML: {error}") from error
     if not isinstance(entries, dict) or env_id not in entries:
         known = ", ".join(sorted(entries)) if isinstance(entries, dict) else "none"
         raise ZooConfigError(
