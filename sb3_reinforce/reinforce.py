@@ -40,10 +40,10 @@ def _non_finite_parts(obs: Any) -> list[tuple[str | None, np.ndarray]]:
 
 def _total_grad_norm(parameters: Iterable[th.Tensor]) -> th.Tensor:
     """The global 2-norm of the parameters' gradients, as ``clip_grad_norm_`` computes it, without clipping."""
-    grads = [p.grad for p in parameters if p.grad is not None]
+    parameters = list(parameters)
     if hasattr(th.nn.utils, "get_total_norm"):  # torch >= 2.6
-        return th.nn.utils.get_total_norm(grads)
-    return th.linalg.vector_norm(th.stack([th.linalg.vector_norm(g) for g in grads])) if grads else th.zeros(())
+        return th.nn.utils.get_total_norm([p.grad for p in parameters if p.grad is not None])
+    return th.nn.utils.clip_grad_norm_(parameters, float("inf"))  # older torch: the same norm (a x1 rescale)
 
 
 class REINFORCE(OnPolicyAlgorithm):
