@@ -6,14 +6,17 @@ memory and compute at every step. With ``value_head=False`` no value network exi
 estimate is the constant baseline ``b(s) = 0`` that plain REINFORCE uses.
 """
 
+import math
 from typing import Any
 
 import torch as th
 from gymnasium import spaces
+from stable_baselines3.common.distributions import CategoricalDistribution, DiagGaussianDistribution
 from stable_baselines3.common.policies import ActorCriticPolicy
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor, CombinedExtractor, NatureCNN
 from stable_baselines3.common.type_aliases import PyTorchObs, Schedule
 from torch import nn
+from torch.nn import functional as F
 
 from sb3_reinforce.sampling import SUPPORTED_DISTRIBUTIONS, FastSampler
 
@@ -48,11 +51,15 @@ class ReinforcePolicy(ActorCriticPolicy):
         algorithm from its ``baseline`` argument.
     :param xavier_init: Initialize all weights and biases Glorot-uniform, as the seed did, instead of
         SB3's orthogonal initialization (``ortho_init`` is then ignored).
-    :param fast_rollout: Sample the rollout's actions with :class:`~sb3_reinforce.sampling.FastSampler` (same
-        distributions as SB3's ``get_distribution(obs).get_actions()``, without building distribution objects).
-        ``False`` keeps SB3's path; gSDE always does.
+    :param fast_rollout: Sample the rollout's actions with :class:`~sb3_reinforce.sampling.FastSampler`, and
+        evaluate ``log pi(a|s)`` and the entropy in :meth:`evaluate_actions` with their closed forms (categorical
+        and diagonal Gaussian policies): the same distributions and values as SB3's, without building
+        ``torch.distributions`` objects. ``False`` keeps SB3's path for both; gSDE always does.
     :param kwargs: Passed on to ``ActorCriticPolicy`` (``activation_fn``, ``ortho_init``, ``use_sde``,
-        ``log_std_init``, ``features_extractor_class``, ``optimizer_class``, ``optimizer_kwargs``, ...)
+        ``log_std_init``, ``features_extractor_class``, ``optimizer_class``, ``optimizer_kwargs``, ...).
+        With the default ``optimizer_class`` (Adam), ``optimizer_kwargs`` defaults to SB3's ``eps=1e-5`` plus
+        ``foreach=True`` (torch's multi-tensor implementation of the same update, which torch only picks by
+        itself on GPUs); a ``foreach`` given in ``optimizer_kwargs`` is kept.
     """
 
     def __init__(
@@ -76,6 +83,9 @@ class ReinforcePolicy(ActorCriticPolicy):
             net_arch = dict(pi=pi_arch, vf=[])
             # A separate critic feature extractor would never be used.
             kwargs["share_features_extractor"] = True
+        if kwargs.get("optimizer_class", th.optim.Adam) is th.optim.Adam:
+            optimizer_kwargs = kwargs.get("optimizer_kwargs")
+            kwargs["optimizer_kwargs"] = {"foreach": True, **({"eps": 1e-5} if optimizer_kwargs is None else optimizer_kwargs)}
         super().__init__(observation_space, action_space, lr_schedule, net_arch=net_arch, **kwargs)
 
     def _build(self, lr_schedule: Schedule) -> None:
@@ -101,15 +111,38 @@ class ReinforcePolicy(ActorCriticPolicy):
         must use SB3's ``get_distribution(obs).get_actions()``: ``fast_rollout=False``, gSDE, another
         distribution, or a subclass that changes how the distribution is built.
         """
+        if not self._has_standard_distribution() or not isinstance(self.action_dist, SUPPORTED_DISTRIBUTIONS):
+            return None
+        return FastSampler(self)
+
+    def _has_standard_distribution(self) -> bool:
+        """Whether the fast paths may be used: on, no gSDE, and the distribution built as SB3 builds it."""
         builds_own_distribution = (
             type(self).get_distribution is not ActorCriticPolicy.get_distribution
             or type(self)._get_action_dist_from_latent is not ActorCriticPolicy._get_action_dist_from_latent
         )
-        if not self.fast_rollout or self.use_sde or builds_own_distribution:
-            return None
-        if not isinstance(self.action_dist, SUPPORTED_DISTRIBUTIONS):
-            return None
-        return FastSampler(self)
+        return self.fast_rollout and not self.use_sde and not builds_own_distribution
+
+    def _log_prob_and_entropy(self, latent_pi: th.Tensor, actions: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
+        """
+        ``log pi(a|s)`` and the entropy ``H(pi(.|s))`` from the actor's latent, as SB3's distributions compute
+        them, in closed form for categorical and diagonal Gaussian policies (else through SB3's distribution).
+        """
+        params = self.action_net(latent_pi)
+        if isinstance(self.action_dist, CategoricalDistribution):
+            # log pi(a|s) = l_a - logsumexp(l),   H = -sum_i pi_i log pi_i   (logits l)
+            log_pi = F.log_softmax(params, dim=-1).clamp(min=th.finfo(params.dtype).min)
+            log_prob = log_pi.gather(-1, actions.long().reshape(-1, 1)).squeeze(-1)
+            return log_prob, -(log_pi.exp() * log_pi).sum(-1)
+        if isinstance(self.action_dist, DiagGaussianDistribution):
+            # log N(a; mu, sigma) = sum_j [ -(a_j - mu_j)^2 / (2 sigma_j^2) - log sigma_j - log sqrt(2 pi) ]
+            # H = sum_j [ 1/2 + log sqrt(2 pi) + log sigma_j ]
+            log_std = self.log_std.expand_as(params)
+            z = (actions.reshape(params.shape) - params) * th.exp(-log_std)
+            log_prob = (-0.5 * z.pow(2) - log_std - math.log(math.sqrt(2 * math.pi))).sum(-1)
+            return log_prob, (0.5 + math.log(math.sqrt(2 * math.pi)) + log_std).sum(-1)
+        distribution = self._get_action_dist_from_latent(latent_pi)
+        return distribution.log_prob(actions), distribution.entropy()  # type: ignore[return-value]
 
     def _zero_values(self, like: th.Tensor) -> th.Tensor:
         return th.zeros((like.shape[0], 1), device=like.device, dtype=th.float32)
@@ -138,11 +171,25 @@ class ReinforcePolicy(ActorCriticPolicy):
         :param actions: Actions
         :return: estimated value (zeros without a value head), log likelihood of the actions, entropy
         """
-        if self.value_head:
-            return super().evaluate_actions(obs, actions)
-        distribution = self.get_distribution(obs)
-        log_prob = distribution.log_prob(actions)
-        return self._zero_values(log_prob), log_prob, distribution.entropy()
+        if not self._has_standard_distribution():
+            if self.value_head:
+                return super().evaluate_actions(obs, actions)
+            distribution = self.get_distribution(obs)
+            log_prob = distribution.log_prob(actions)
+            return self._zero_values(log_prob), log_prob, distribution.entropy()
+        features = self.extract_features(obs)
+        if not self.value_head:
+            latent_pi = self.mlp_extractor.forward_actor(features)  # type: ignore[arg-type]
+            log_prob, entropy = self._log_prob_and_entropy(latent_pi, actions)
+            return self._zero_values(log_prob), log_prob, entropy
+        if self.share_features_extractor:
+            latent_pi, latent_vf = self.mlp_extractor(features)
+        else:
+            pi_features, vf_features = features
+            latent_pi = self.mlp_extractor.forward_actor(pi_features)
+            latent_vf = self.mlp_extractor.forward_critic(vf_features)
+        log_prob, entropy = self._log_prob_and_entropy(latent_pi, actions)
+        return self.value_net(latent_vf), log_prob, entropy
 
     def predict_values(self, obs: PyTorchObs) -> th.Tensor:
         """

@@ -403,7 +403,7 @@ class REINFORCE(OnPolicyAlgorithm):
         if self.max_grad_norm is not None:
             grad_norm = th.nn.utils.clip_grad_norm_(self.policy.parameters(), self.max_grad_norm)
         else:  # the norm only (logged, and checked below): no clipping, so no rescaling of every gradient
-            grad_norm = _total_grad_norm(self.policy.parameters())
+            grad_norm = _total_grad_norm(p for group in self.policy.optimizer.param_groups for p in group["params"])
         if not (th.isfinite(loss) and th.isfinite(grad_norm)):
             self.policy.optimizer.zero_grad()
             raise NonFiniteError(

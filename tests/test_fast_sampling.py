@@ -170,8 +170,8 @@ def test_fallback_to_sb3_path() -> None:
 @pytest.mark.parametrize("env_id", ["CartPole-v1", "Pendulum-v1"])
 def test_loss_and_predict_do_not_depend_on_the_flag(env_id: str) -> None:
     """
-    The same batch gives the same gradient step with the fast path on and off (log_prob and entropy are
-    evaluated by the unchanged ``evaluate_actions``), and deterministic ``predict`` is the same.
+    The same batch gives the same gradient step with the fast path on and off (log_prob and entropy in closed
+    form, or through SB3's distribution objects), and deterministic ``predict`` is the same.
     """
     fast = REINFORCE("MlpPolicy", env_id, seed=0, device="cpu", min_steps=300)
     slow = REINFORCE("MlpPolicy", env_id, seed=0, device="cpu", min_steps=300, policy_kwargs=dict(fast_rollout=False))
@@ -220,3 +220,77 @@ def test_in_place_noise_is_torchs_stream(shape: tuple[int, int]) -> None:
     for want, got in zip(expected, drawn, strict=True):
         np.testing.assert_array_equal(got, want)
     assert not np.array_equal(drawn[0], drawn[3])
+
+
+@pytest.mark.parametrize("value_head", [False, True])
+@pytest.mark.parametrize(
+    "action_space",
+    [
+        spaces.Discrete(5),
+        spaces.Box(-1, 1, (1,)),
+        spaces.Box(-2, 2, (3,)),
+        spaces.MultiDiscrete([3, 2]),
+        spaces.MultiBinary(3),
+    ],
+    ids=["discrete", "box1", "box3", "multidiscrete", "multibinary"],
+)
+def test_evaluate_actions_matches_sb3_distributions(action_space: spaces.Space, value_head: bool) -> None:
+    """
+    The loss's ``log pi(a|s)`` and entropy (closed forms for categorical and Gaussian policies, SB3's
+    distributions otherwise) equal those of SB3's distribution objects, and so do their gradients.
+    """
+    policy = make_policy(action_space)
+    if value_head:
+        th.manual_seed(0)
+        policy = ReinforcePolicy(OBS_SPACE, action_space, lambda _: 1e-3, value_head=True)
+    th.manual_seed(1)
+    obs = th.as_tensor(np.stack([OBS_SPACE.sample() for _ in range(64)]))
+    action_space.seed(2)
+    actions = th.as_tensor(np.stack([action_space.sample() for _ in range(64)])).float()
+    if isinstance(action_space, spaces.Discrete):
+        actions = actions.long().flatten()
+
+    values, log_prob, entropy = policy.evaluate_actions(obs, actions)
+    assert entropy is not None
+    distribution = policy.get_distribution(obs)  # SB3's path
+    expected_log_prob, expected_entropy = distribution.log_prob(actions), distribution.entropy()
+    assert expected_entropy is not None
+    th.testing.assert_close(log_prob, expected_log_prob)
+    th.testing.assert_close(entropy, expected_entropy)
+    expected_values = policy.predict_values(obs)
+    th.testing.assert_close(values, expected_values)
+
+    def grads(loss: th.Tensor) -> list[th.Tensor]:
+        policy.zero_grad()
+        loss.backward()
+        return [p.grad.clone() if p.grad is not None else th.zeros_like(p) for p in policy.parameters()]
+
+    ours = grads((log_prob * th.linspace(-1, 1, 64)).mean() + 0.3 * entropy.mean())
+    values, log_prob, entropy = policy.evaluate_actions(obs, actions)  # a fresh graph
+    distribution = policy.get_distribution(obs)
+    sb3 = grads((distribution.log_prob(actions) * th.linspace(-1, 1, 64)).mean() + 0.3 * distribution.entropy().mean())  # type: ignore[union-attr]
+    for a, b in zip(ours, sb3, strict=True):
+        th.testing.assert_close(a, b)
+
+
+def test_evaluate_actions_closed_form_is_finite_for_extreme_logits() -> None:
+    # An impossible action (logit -inf) adds 0 to the entropy, as in torch's Categorical, not 0 * -inf = NaN
+    policy = make_policy(spaces.Discrete(3))
+    with th.no_grad():
+        policy.action_net.bias.copy_(th.tensor([0.0, -float("inf"), 0.0]))
+    obs = th.zeros((2, 4))
+    _, log_prob, entropy = policy.evaluate_actions(obs, th.tensor([0, 2]))
+    assert entropy is not None and th.isfinite(entropy).all() and th.isfinite(log_prob).all()
+    th.testing.assert_close(entropy, policy.get_distribution(obs).entropy())
+
+
+def test_adam_defaults_to_foreach_and_keeps_the_users_choice() -> None:
+    box = spaces.Box(-1, 1, (2,))
+    default = ReinforcePolicy(OBS_SPACE, box, lambda _: 1e-3)
+    assert default.optimizer_kwargs == {"foreach": True, "eps": 1e-5}  # SB3's eps for Adam, plus foreach
+    assert default.optimizer.defaults["foreach"] is True
+    assert default.optimizer.defaults["eps"] == 1e-5
+    mine = ReinforcePolicy(OBS_SPACE, box, lambda _: 1e-3, optimizer_kwargs=dict(foreach=False, betas=(0.8, 0.9)))
+    assert mine.optimizer.defaults["foreach"] is False and mine.optimizer.defaults["betas"] == (0.8, 0.9)
+    sgd = ReinforcePolicy(OBS_SPACE, box, lambda _: 1e-3, optimizer_class=th.optim.SGD)
+    assert "foreach" not in sgd.optimizer_kwargs
