@@ -43,6 +43,22 @@ def test_throughput_tiny_budget(tmp_path: Path) -> None:
         assert math.isnan(float(row["reinforce_over_ppo"]))  # PPO was not measured
 
 
+def test_rollout_ceiling_tiny_budget(tmp_path: Path) -> None:
+    ceiling = load("rollout_ceiling")
+    out = tmp_path / "ceiling.csv"
+    threads = th.get_num_threads()
+    try:
+        ceiling.main(["--env", "CartPole-v1", "--n-envs", "2", "--steps", "300", "--repeats", "1", "--out", str(out)])
+    finally:
+        th.set_num_threads(threads)
+    (row,) = read_rows(out)
+    parts = [float(row[f"{part} ms"]) for part in ceiling.PARTS]
+    assert all(part > 0 for part in parts)  # every counter was hit: learn() still calls each wrapped part
+    assert int(row["updates"]) >= 1 and int(row["vec_env steps"]) >= 150
+    assert sum(parts) <= float(row["learn ms"]) + 1e-6
+    assert 0 < float(row["R/raw"]) <= float(row["bound: no train"]) <= float(row["bound: env only"])
+
+
 def test_memory_tiny_budget(tmp_path: Path) -> None:
     memory = load("memory")
     out = tmp_path / "memory.csv"
