@@ -132,6 +132,18 @@ class EpisodeRolloutBuffer(BaseBuffer):
         self.batch_size = 0
         super().reset()
 
+    @property
+    def env_steps(self) -> np.ndarray:
+        """Rows written per environment: the lengths so far of its finished and running episodes."""
+        return self._env_steps
+
+    @env_steps.setter
+    def env_steps(self, value: np.ndarray) -> None:
+        self._env_steps = np.array(value, dtype=np.int64)
+        # Kept with it for add(): the flat row of each environment's next write, and the longest column.
+        self._next_index = self._env_steps * self.n_envs + self._env_indices
+        self._longest = int(self._env_steps.max())
+
     def size(self) -> int:
         """Number of transitions currently stored (finished and running episodes)."""
         return int(self.env_steps.sum())
@@ -171,21 +183,23 @@ class EpisodeRolloutBuffer(BaseBuffer):
         :param reward: Rewards received (bootstrapped on truncation by the caller if wanted), shape ``(n_envs,)``
         :param episode_end: True where this step ended the environment's episode, shape ``(n_envs,)``
         """
-        rows = self.env_steps
-        if rows.max() >= self.capacity:
+        if self._longest >= self.capacity:
             self._grow()
         # Row-major (capacity * n_envs) views: one flat index per env is cheaper than a (row, column) pair.
         flat = self._flat
-        index = rows * self.n_envs + self._env_indices
+        index = self._next_index
         for name, values in self._split_obs(obs).items():
             flat[name][index] = np.reshape(values, (self.n_envs, *flat[name].shape[1:]))
         flat["actions"][index] = np.reshape(action, (self.n_envs, self.action_dim))
         flat["rewards"][index] = reward
         flat["episode_ends"][index] = episode_end
-        self.env_steps = rows + 1
+        # Every column grew by one row (in place: cheaper than the property's full update)
+        self._env_steps += 1
+        self._next_index += self.n_envs
+        self._longest += 1
         if episode_end.any():
             ended = np.flatnonzero(episode_end)
-            self.finished_steps[ended] = self.env_steps[ended]
+            self.finished_steps[ended] = self._env_steps[ended]
             self.n_finished_episodes += len(ended)
 
     def compute_returns(self) -> None:
