@@ -41,14 +41,29 @@ def child(algo: str, steps: int, env_id: str, n_envs: int, seed: int) -> dict[st
 
     th.set_num_threads(1)
     env = make_vec_env(env_id, n_envs=n_envs, seed=seed)
-    if algo == "random":
-        return _random_actions(env, steps, seed)
-    algo_class = {"reinforce": REINFORCE, "reinforce_value": REINFORCE, "ppo": PPO}[algo]
-    kwargs = {"baseline": "value"} if algo == "reinforce_value" else {}
-    model = algo_class("MlpPolicy", env, seed=seed, device="cpu", **kwargs)
+    model: Any = None
+    if algo == "random":  # the environment alone (random actions, no model, no torch work)
+        env.action_space.seed(seed)
+        env.reset()
+        n_iters = max(1, steps // env.num_envs)
+
+        def run() -> int:
+            for _ in range(n_iters):
+                env.step(np.array([env.action_space.sample() for _ in range(env.num_envs)]))
+            return n_iters * env.num_envs
+
+    else:
+        algo_class = {"reinforce": REINFORCE, "reinforce_value": REINFORCE, "ppo": PPO}[algo]
+        kwargs = {"baseline": "value"} if algo == "reinforce_value" else {}
+        model = algo_class("MlpPolicy", env, seed=seed, device="cpu", **kwargs)
+
+        def run() -> int:
+            model.learn(steps)
+            return model.num_timesteps
+
     rss_before = psutil.Process().memory_info().rss
     start = time.perf_counter()
-    model.learn(steps)
+    steps_done = run()
     seconds = time.perf_counter() - start
     rss_after = psutil.Process().memory_info().rss
     # ru_maxrss (KiB on Linux) is the kernel's high-water mark, which can lag the current RSS a little
@@ -57,7 +72,7 @@ def child(algo: str, steps: int, env_id: str, n_envs: int, seed: int) -> dict[st
         "algo": algo,
         "env_id": env_id,
         "n_envs": n_envs,
-        "steps": model.num_timesteps,
+        "steps": steps_done,
         "seconds": round(seconds, 1),
         "rss_before_learn_mib": round(rss_before / 2**20, 1),
         "rss_after_learn_mib": round(rss_after / 2**20, 1),
@@ -65,33 +80,6 @@ def child(algo: str, steps: int, env_id: str, n_envs: int, seed: int) -> dict[st
     }
     if algo.startswith("reinforce"):
         result["buffer_capacity_per_env"] = model.rollout_buffer.capacity
-    print(json.dumps(result))
-    return result
-
-
-def _random_actions(env: Any, steps: int, seed: int) -> dict[str, float | int | str]:
-    """The environment alone (random actions, no model, no torch work): what it adds to the RSS by itself."""
-    import psutil
-
-    env.action_space.seed(seed)
-    env.reset()
-    rss_before = psutil.Process().memory_info().rss
-    start = time.perf_counter()
-    for _ in range(max(1, steps // env.num_envs)):
-        env.step(np.array([env.action_space.sample() for _ in range(env.num_envs)]))
-    seconds = time.perf_counter() - start
-    rss_after = psutil.Process().memory_info().rss
-    peak = max(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 2**10, rss_after)
-    result = {
-        "algo": "random",
-        "env_id": env.envs[0].spec.id if hasattr(env, "envs") else "",
-        "n_envs": env.num_envs,
-        "steps": max(1, steps // env.num_envs) * env.num_envs,
-        "seconds": round(seconds, 1),
-        "rss_before_learn_mib": round(rss_before / 2**20, 1),
-        "rss_after_learn_mib": round(rss_after / 2**20, 1),
-        "peak_rss_mib": round(peak / 2**20, 1),
-    }
     print(json.dumps(result))
     return result
 

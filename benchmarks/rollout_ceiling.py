@@ -9,7 +9,7 @@ For each repeat, in one process with torch on 1 thread:
    SB3's callbacks and logging, and the per-rollout setup ("rest"). The wrappers cost well under a microsecond
    per call, included in the parts.
 2. The same VecEnv, freshly built with the same seed, stepped alone with pre-drawn random actions as many
-   times as ``learn`` stepped it ("env alone", ``throughput.py``'s ``raw``).
+   times as ``learn`` stepped it ("env alone": ``throughput.py``'s ``raw``, its own code, timed in CPU time).
 
 CPU time, not wall-clock: on a shared machine other processes inflate wall-clock time at random, while the CPU
 time of a single-threaded process barely moves. The ratios below are those of ``throughput.py`` (steps per
@@ -37,8 +37,7 @@ from typing import Any
 
 import numpy as np
 import torch as th
-from stable_baselines3.common.env_util import make_vec_env
-from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
+from throughput import make_env, time_raw  # benchmarks/throughput.py, next to this script
 
 from sb3_reinforce import REINFORCE
 
@@ -54,10 +53,6 @@ def _timed(function: Callable[..., Any], part: str, totals: dict[str, float]) ->
             totals[part] += time.process_time() - start
 
     return wrapper
-
-
-def make_env(env_id: str, n_envs: int, seed: int) -> VecEnv:
-    return make_vec_env(env_id, n_envs=n_envs, seed=seed, vec_env_cls=DummyVecEnv)
 
 
 def split_learn(env_id: str, n_envs: int, steps: int, seed: int) -> tuple[dict[str, float], int, int]:
@@ -98,13 +93,7 @@ def split_learn(env_id: str, n_envs: int, steps: int, seed: int) -> tuple[dict[s
 def env_alone(env_id: str, n_envs: int, vec_steps: int, seed: int) -> float:
     """CPU seconds of ``vec_steps`` steps of the same VecEnv with pre-drawn random actions."""
     env = make_env(env_id, n_envs, seed)
-    env.action_space.seed(seed)
-    actions = [np.stack([env.action_space.sample() for _ in range(n_envs)]) for _ in range(min(vec_steps, 1024))]
-    env.reset()
-    start = time.process_time()
-    for i in range(vec_steps):
-        env.step(actions[i % len(actions)])
-    seconds = time.process_time() - start
+    _, seconds = time_raw(env, vec_steps * n_envs, seed, clock=time.process_time)
     env.close()
     return seconds
 

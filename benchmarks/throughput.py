@@ -52,16 +52,16 @@ def make_env(env_id: str, n_envs: int, seed: int) -> VecEnv:
     return make_vec_env(env_id, n_envs=n_envs, seed=seed, vec_env_cls=DummyVecEnv)
 
 
-def time_raw(env: VecEnv, steps: int, seed: int) -> tuple[int, float]:
-    """Step the VecEnv with random actions drawn in advance (the environment's own rate)."""
+def time_raw(env: VecEnv, steps: int, seed: int, clock: Callable[[], float] = time.perf_counter) -> tuple[int, float]:
+    """Step the VecEnv with random actions drawn in advance (the environment's own rate), timed by ``clock``."""
     n_iters = max(1, steps // env.num_envs)
     env.action_space.seed(seed)
     actions = [np.stack([env.action_space.sample() for _ in range(env.num_envs)]) for _ in range(min(n_iters, 1024))]
     env.reset()
-    start = time.perf_counter()
+    start = clock()
     for i in range(n_iters):
         env.step(actions[i % len(actions)])
-    return n_iters * env.num_envs, time.perf_counter() - start
+    return n_iters * env.num_envs, clock() - start
 
 
 def time_policy_loop(env: VecEnv, model: REINFORCE, steps: int, fast: bool) -> tuple[int, float]:

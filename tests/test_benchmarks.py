@@ -3,6 +3,7 @@
 import csv
 import importlib.util
 import math
+import sys
 from pathlib import Path
 from types import ModuleType
 
@@ -12,6 +13,8 @@ BENCHMARKS = Path(__file__).parent.parent / "benchmarks"
 
 
 def load(name: str) -> ModuleType:
+    if str(BENCHMARKS) not in sys.path:  # as when run as a script: the benchmarks import each other
+        sys.path.insert(0, str(BENCHMARKS))
     spec = importlib.util.spec_from_file_location(f"benchmarks_{name}", BENCHMARKS / f"{name}.py")
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
