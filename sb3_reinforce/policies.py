@@ -177,19 +177,20 @@ class ReinforcePolicy(ActorCriticPolicy):
             distribution = self.get_distribution(obs)
             log_prob = distribution.log_prob(actions)
             return self._zero_values(log_prob), log_prob, distribution.entropy()
+        # SB3's evaluate_actions, with the closed forms in place of the distribution object
         features = self.extract_features(obs)
+        values = None
         if not self.value_head:
             latent_pi = self.mlp_extractor.forward_actor(features)  # type: ignore[arg-type]
-            log_prob, entropy = self._log_prob_and_entropy(latent_pi, actions)
-            return self._zero_values(log_prob), log_prob, entropy
-        if self.share_features_extractor:
+        elif self.share_features_extractor:
             latent_pi, latent_vf = self.mlp_extractor(features)
+            values = self.value_net(latent_vf)
         else:
             pi_features, vf_features = features
             latent_pi = self.mlp_extractor.forward_actor(pi_features)
-            latent_vf = self.mlp_extractor.forward_critic(vf_features)
+            values = self.value_net(self.mlp_extractor.forward_critic(vf_features))
         log_prob, entropy = self._log_prob_and_entropy(latent_pi, actions)
-        return self.value_net(latent_vf), log_prob, entropy
+        return (self._zero_values(log_prob) if values is None else values), log_prob, entropy
 
     def predict_values(self, obs: PyTorchObs) -> th.Tensor:
         """
