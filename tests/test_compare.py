@@ -9,14 +9,17 @@ import numpy as np
 import pandas as pd
 import pytest
 
+import sb3_reinforce
+from sb3_reinforce.compare import runner
 from sb3_reinforce.compare.cli import _check_resumable, build_parser, main, parse_specs, write_outputs
 from sb3_reinforce.compare.hyperparams import ZooConfigError, load_zoo_config
 from sb3_reinforce.compare.render import update_readme
 from sb3_reinforce.compare.report import PER_RUN_DIR
-from sb3_reinforce.compare.runner import RESULT_COLUMNS, RunSpec
+from sb3_reinforce.compare.runner import RESULT_COLUMNS, RunSpec, code_version
 from sb3_reinforce.seed_reproduction import EPISODE_COLUMNS, RewardFloor
 from sb3_reinforce.seed_reproduction import main as seed_main
 from sb3_reinforce.stats import bootstrap_ci, first_crossing, iqm, quantile_with_inf, rolling_mean
+from sb3_reinforce.version import __version__
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -217,9 +220,22 @@ def test_tiny_compare_run_resume_and_append(tmp_path: Path, capsys: pytest.Captu
     summary = json.loads(finished.read_text())
     assert summary["steps_per_s"] > 0 and summary["cpu_time_s"] > 0
     assert summary["hyperparams_source"].endswith("reinforce.yml")
+    assert summary["code_version"]["sb3_reinforce"] == __version__
+    in_git = (Path(sb3_reinforce.__file__).parent.parent / ".git").exists()
+    assert (summary["code_version"]["git_commit"] is not None) == in_git
+    if in_git:
+        assert len(summary["code_version"]["git_commit"]) == 40 and isinstance(summary["code_version"]["git_dirty"], bool)
     assert (out / "learning_curve.png").read_bytes()[:8] == PNG_MAGIC
     table = (out / "summary.md").read_text()
     assert "| REINFORCE | 1 |" in table and "| PPO | 1 |" in table and "steps to 475" in table
+
+
+def test_code_version_without_git(monkeypatch: pytest.MonkeyPatch) -> None:
+    def no_git(*args: object, **kwargs: object) -> None:
+        raise FileNotFoundError("git")
+
+    monkeypatch.setattr(runner.subprocess, "run", no_git)
+    assert code_version() == {"sb3_reinforce": __version__, "git_commit": None, "git_dirty": None}
 
 
 def test_seed_reproduction_tiny_run(tmp_path: Path) -> None:

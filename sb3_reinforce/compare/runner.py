@@ -7,6 +7,7 @@ Each evaluation is appended at once to the run's CSV, so an interrupted run keep
 
 import csv
 import json
+import subprocess
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,8 +26,9 @@ from stable_baselines3.common.vec_env import VecEnv, VecNormalize, sync_envs_nor
 from sb3_reinforce.compare.hyperparams import ZooConfig, load_zoo_config
 from sb3_reinforce.compare.report import PER_RUN_DIR
 from sb3_reinforce.reinforce import REINFORCE
+from sb3_reinforce.version import __version__
 
-__all__ = ["RESULT_COLUMNS", "ComparisonEvalCallback", "RunSpec", "run"]
+__all__ = ["RESULT_COLUMNS", "ComparisonEvalCallback", "RunSpec", "code_version", "run"]
 
 ALGO_CLASSES: dict[str, type[BaseAlgorithm]] = {"reinforce": REINFORCE, "ppo": PPO, "a2c": A2C}
 
@@ -151,6 +153,28 @@ class ComparisonEvalCallback(BaseCallback):
             self.progress(self.num_timesteps)
 
 
+def code_version() -> dict[str, Any]:
+    """
+    What code a run used: the package version and, in a git checkout, the commit and whether the tracked files
+    differed from it. Taken when the run starts (each run is a fresh process, so commits made while a
+    comparison runs reach its later runs, and their JSON files say so).
+
+    :return: ``{"sb3_reinforce": version, "git_commit": hash or None, "git_dirty": bool or None}``
+    """
+    package_dir = Path(__file__).resolve().parent
+
+    def git(*args: str) -> str | None:
+        try:
+            done = subprocess.run(["git", *args], cwd=package_dir, capture_output=True, text=True, timeout=10)
+        except (OSError, subprocess.SubprocessError):
+            return None
+        return done.stdout.strip() if done.returncode == 0 else None
+
+    commit = git("rev-parse", "HEAD")
+    status = None if commit is None else git("status", "--porcelain", "--untracked-files=no")
+    return {"sb3_reinforce": __version__, "git_commit": commit, "git_dirty": None if status is None else status != ""}
+
+
 def _make_envs(config: ZooConfig, seed: int) -> tuple[VecEnv, VecEnv]:
     train_env = make_vec_env(config.env_id, n_envs=config.n_envs, seed=seed)
     # The evaluation env's seed is far from the training envs' (seed .. seed + n_envs - 1)
@@ -173,6 +197,7 @@ def run(spec: RunSpec, out_dir: Path, progress: Any = None) -> dict[str, Any]:
     :return: The summary written to the JSON file
     """
     th.set_num_threads(1)
+    version = code_version()
     runs_dir = out_dir / PER_RUN_DIR
     runs_dir.mkdir(parents=True, exist_ok=True)
     csv_path = runs_dir / f"{spec.name}.csv"
@@ -189,6 +214,7 @@ def run(spec: RunSpec, out_dir: Path, progress: Any = None) -> dict[str, Any]:
         callback._evaluate()  # the final point, at the end of the budget
     summary = dict(
         spec=spec.__dict__,
+        code_version=version,
         hyperparams_source=str(config.source),
         hyperparams={key: str(value) for key, value in config.raw.items()},
         steps=int(model.num_timesteps),
