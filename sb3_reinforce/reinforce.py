@@ -12,14 +12,14 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from stable_baselines3.common.policies import BasePolicy
 from stable_baselines3.common.type_aliases import GymEnv, MaybeCallback, Schedule
-from stable_baselines3.common.utils import explained_variance, obs_as_tensor
+from stable_baselines3.common.utils import FloatSchedule, explained_variance, obs_as_tensor, update_learning_rate
 from stable_baselines3.common.vec_env import VecEnv
 from torch.nn import functional as F
 
 from sb3_reinforce.buffers import DictEpisodeRolloutBuffer, EpisodeRolloutBuffer
 from sb3_reinforce.native_memory import HeapTrimmer
 from sb3_reinforce.policies import CnnPolicy, MlpPolicy, MultiInputPolicy, ReinforcePolicy
-from sb3_reinforce.returns import normalize_returns
+from sb3_reinforce.returns import leave_one_out_baseline, normalize_returns
 from sb3_reinforce.rng import get_rng_state, set_rng_state
 from sb3_reinforce.safe_io import check_model_file
 from sb3_reinforce.validation import check_spaces, validate_hyperparameters
@@ -59,10 +59,13 @@ class REINFORCE(OnPolicyAlgorithm):
     A rollout always ends on episode boundaries; see :class:`~sb3_reinforce.buffers.EpisodeRolloutBuffer`
     for what happens to episodes still running in other environments when the batch is full.
 
-    The estimator is unbiased but has high variance: standardizing the returns and a value baseline reduce
-    it without adding bias (a baseline ``b(s)`` does not change the expected gradient). Truncated episodes
-    (time limits) are bootstrapped with ``gamma * V(s_T)`` when there is a value baseline, and are treated
-    as terminal otherwise (no estimate of the future exists).
+    The estimator is unbiased but has high variance. A baseline reduces it without adding bias: any ``b`` that
+    does not depend on the action ``a_t`` leaves the expected gradient unchanged, since
+    ``E[grad log pi(a|s) * b] = b * grad sum_a pi(a|s) = 0``. Two are offered: a learned ``V(s_t)``
+    (``baseline="value"``, fitted on earlier batches only when it is read, so it cannot depend on this batch's
+    actions) and a critic-free leave-one-out mean over the batch's other episodes (``baseline="loo"``).
+    Truncated episodes (time limits) are bootstrapped with ``gamma * V(s_T)`` when there is a value baseline,
+    and are treated as terminal otherwise (no estimate of the future exists).
 
     :param policy: The policy model to use (MlpPolicy, CnnPolicy, MultiInputPolicy, or a class)
     :param env: The environment to learn from (if registered in Gym, can be str)
@@ -75,12 +78,25 @@ class REINFORCE(OnPolicyAlgorithm):
         episodes are added to the batch until both ``n_episodes * n_envs`` episodes and ``min_steps`` steps
         are reached (0: count episodes only)
     :param gamma: Discount factor, in [0, 1]
-    :param baseline: ``None`` for plain REINFORCE (no value network is built), or ``"value"`` for REINFORCE
-        with a learned state-value baseline ``V(s)`` trained by regression on the returns
+    :param baseline: ``None`` for plain REINFORCE (no value network is built), ``"value"`` for REINFORCE
+        with a learned state-value baseline ``V(s)`` trained by regression on the returns, or ``"loo"`` for the
+        critic-free leave-one-out baseline: for step ``t`` of an episode, the mean return ``G_t`` of the batch's
+        *other* episodes that lasted past step ``t`` (0 where none did; see
+        :func:`~sb3_reinforce.returns.leave_one_out_baseline`). ``"loo"`` needs at least two episodes per batch
+        (``n_episodes * n_envs >= 2``), which is checked when the model is built.
     :param normalize_returns: Standardize the policy-gradient weights over the batch (returns without a
         baseline, advantages ``G_t - V(s_t)`` with one). A batch of equal returns gives zero weights, never NaN.
     :param ent_coef: Entropy coefficient for the loss calculation
-    :param vf_coef: Value function coefficient for the loss calculation (used only with ``baseline="value"``)
+    :param vf_coef: Value function coefficient for the loss calculation (used only with ``baseline="value"``
+        and ``n_value_steps=0``)
+    :param n_value_steps: Gradient steps that fit the value baseline to each batch's returns, after the policy's
+        one step, with an optimizer of their own (Spinning Up's VPG takes 80). 0 (default): the value head takes
+        one joint step with the policy on ``policy_loss + vf_coef * value_loss``, as A2C. Only with
+        ``baseline="value"``. Either way the policy takes one step per batch, with advantages computed from
+        ``V`` before it was fitted to this batch. With a shared features extractor (``CnnPolicy``'s default),
+        the value steps train the value layers only and the extractor learns from the policy loss.
+    :param value_learning_rate: Learning rate of the value steps (``n_value_steps > 0``), a number or a
+        schedule of the progress remaining; None (default): the policy's ``learning_rate``
     :param max_grad_norm: The maximum value for the gradient clipping, or None (default) for no clipping.
         Unlike A2C/PPO's 0.5, the default does not clip: with ``baseline="value"`` the critic's early
         gradient (an MSE on raw returns) dominates a global norm, and clipping it starves the actor
@@ -132,6 +148,8 @@ class REINFORCE(OnPolicyAlgorithm):
         normalize_returns: bool = True,
         ent_coef: float = 0.0,
         vf_coef: float = 0.5,
+        n_value_steps: int = 0,
+        value_learning_rate: float | Schedule | None = None,
         max_grad_norm: float | None = None,
         use_sde: bool = False,
         sde_sample_freq: int = -1,
@@ -157,6 +175,8 @@ class REINFORCE(OnPolicyAlgorithm):
             vf_coef=vf_coef,
             max_grad_norm=max_grad_norm,
             max_rollout_steps=max_rollout_steps,
+            n_value_steps=n_value_steps,
+            value_learning_rate=value_learning_rate,
         )
         if policy_kwargs is not None and "value_head" in policy_kwargs:
             raise ValueError("Do not set `value_head` in policy_kwargs: use REINFORCE(baseline='value') or baseline=None")
@@ -187,6 +207,8 @@ class REINFORCE(OnPolicyAlgorithm):
         self.min_steps = min_steps
         self.baseline = baseline
         self.normalize_returns = normalize_returns
+        self.n_value_steps = n_value_steps
+        self.value_learning_rate = value_learning_rate
         self.max_rollout_steps = max_rollout_steps
 
         if _init_setup_model:
@@ -194,6 +216,11 @@ class REINFORCE(OnPolicyAlgorithm):
 
     def _setup_model(self) -> None:
         check_spaces(self.observation_space, self.action_space)
+        if self.baseline == "loo" and self.n_episodes * self.n_envs < 2:
+            raise ValueError(
+                f"baseline='loo' compares each episode with the other episodes of its batch, but a batch holds "
+                f"n_episodes * n_envs = {self.n_episodes} * {self.n_envs} = 1 episode: set n_episodes >= 2 or n_envs >= 2"
+            )
         self._setup_lr_schedule()
         self.set_random_seed(self.seed)
 
@@ -222,10 +249,57 @@ class REINFORCE(OnPolicyAlgorithm):
         )
         self.policy = self.policy.to(self.device)
         self._maybe_recommend_cpu("ReinforcePolicy")
+        self.value_optimizer: th.optim.Optimizer | None = None
+        if self.n_value_steps > 0:
+            value_lr = self.learning_rate if self.value_learning_rate is None else self.value_learning_rate
+            self.value_lr_schedule = FloatSchedule(value_lr)
+            self.value_optimizer = self.policy.optimizer_class(  # type: ignore[call-arg]
+                self._value_parameters(), lr=self.value_lr_schedule(1), **self.policy.optimizer_kwargs
+            )
         self._heap_trimmer = HeapTrimmer(self.heap_trim_interval)
 
     def _excluded_save_params(self) -> list[str]:
         return [*super()._excluded_save_params(), "_heap_trimmer"]
+
+    def _get_torch_save_params(self) -> tuple[list[str], list[str]]:
+        state_dicts, variables = super()._get_torch_save_params()
+        if self.value_optimizer is not None:
+            state_dicts = [*state_dicts, "value_optimizer"]
+        return state_dicts, variables
+
+    def _value_parameters(self) -> list[th.nn.Parameter]:
+        """The parameters that only ``V(s)`` uses: the value layers, and the critic's own features extractor."""
+        policy = self.policy
+        modules = [policy.mlp_extractor.value_net, policy.value_net]
+        if not policy.share_features_extractor:
+            modules.append(policy.vf_features_extractor)
+        return [param for module in modules for param in module.parameters()]
+
+    def _fit_value_baseline(self, observations: Any, returns: th.Tensor) -> th.Tensor:
+        """
+        ``n_value_steps`` gradient steps on ``L_V = mean_t (G_t - V(s_t))^2`` over the whole batch (the value
+        parameters only), after the policy step. Returns the last step's loss.
+        """
+        assert self.value_optimizer is not None
+        update_learning_rate(self.value_optimizer, self.value_lr_schedule(self._current_progress_remaining))
+        for _ in range(self.n_value_steps):
+            value_loss = F.mse_loss(self.policy.predict_values(observations).flatten(), returns)
+            self.value_optimizer.zero_grad()
+            value_loss.backward()
+            parameters = [p for group in self.value_optimizer.param_groups for p in group["params"]]
+            if self.max_grad_norm is not None:
+                grad_norm = th.nn.utils.clip_grad_norm_(parameters, self.max_grad_norm)
+            else:
+                grad_norm = _total_grad_norm(parameters)
+            if not (th.isfinite(value_loss) and th.isfinite(grad_norm)):
+                self.value_optimizer.zero_grad()
+                raise NonFiniteError(
+                    f"Non-finite value loss ({value_loss.item()}) or gradient norm ({grad_norm.item()}) at timestep "
+                    f"{self.num_timesteps}: the value step was skipped and the value weights are unchanged. "
+                    "Lower value_learning_rate or scale the rewards (VecNormalize)."
+                )
+            self.value_optimizer.step()
+        return value_loss.detach()
 
     def _setup_learn(
         self,
@@ -383,20 +457,31 @@ class REINFORCE(OnPolicyAlgorithm):
         values = values.flatten()
         returns = batch.returns
 
-        # Policy gradient theorem, Monte-Carlo estimate (Williams, 1992), with baseline b(s) = V(s) or 0:
-        #   grad J = E[ sum_t grad log pi(a_t|s_t) * (G_t - b(s_t)) ],   G_t = sum_k gamma^k r_{t+k}
-        # so the loss is  L_pi = -mean_t( log pi(a_t|s_t) * A_t ),  A_t = G_t - b(s_t), standardized if asked.
-        with_baseline = self.baseline == "value"
-        advantages = returns - values.detach() if with_baseline else returns
+        # Policy gradient theorem, Monte-Carlo estimate (Williams, 1992), with a baseline b that ignores a_t:
+        #   grad J = E[ sum_t grad log pi(a_t|s_t) * (G_t - b_t) ],   G_t = sum_k gamma^k r_{t+k}
+        # so the loss is  L_pi = -mean_t( log pi(a_t|s_t) * A_t ),  A_t = G_t - b_t, standardized if asked.
+        # b_t = V(s_t) (fitted on earlier batches only), the leave-one-out mean of the other episodes' G_t, or 0.
+        with_value = self.baseline == "value"
+        if with_value:
+            advantages = returns - values.detach()
+        elif self.baseline == "loo":
+            loo = leave_one_out_baseline(self.rollout_buffer.returns, self.rollout_buffer.episode_lengths)
+            advantages = returns - th.as_tensor(loo, dtype=returns.dtype, device=returns.device)
+        else:
+            advantages = returns
         if self.normalize_returns:
             advantages = normalize_returns(advantages)
         policy_loss = -(log_prob * advantages).mean()
 
         # Entropy bonus (approximated by -log pi when there is no analytical form)
         entropy_loss = -th.mean(-log_prob) if entropy is None else -th.mean(entropy)
-        # The baseline regresses on the returns: L_V = mean_t (G_t - V(s_t))^2
-        value_loss = F.mse_loss(values, returns) if with_baseline else th.zeros((), device=returns.device)
-        loss = policy_loss + self.ent_coef * entropy_loss + self.vf_coef * value_loss
+        # The baseline regresses on the returns: L_V = mean_t (G_t - V(s_t))^2, in the same step as the policy
+        # (n_value_steps=0), or in n_value_steps steps of its own after it.
+        joint_value_step = with_value and self.n_value_steps == 0
+        value_loss = F.mse_loss(values, returns) if with_value else th.zeros((), device=returns.device)
+        loss = policy_loss + self.ent_coef * entropy_loss
+        if joint_value_step:
+            loss = loss + self.vf_coef * value_loss
 
         self.policy.optimizer.zero_grad()
         loss.backward()
@@ -412,6 +497,8 @@ class REINFORCE(OnPolicyAlgorithm):
                 "(normalize_returns=True) or scale the rewards (VecNormalize)."
             )
         self.policy.optimizer.step()
+        if with_value and not joint_value_step:
+            value_loss = self._fit_value_baseline(batch.observations, returns)
 
         self._n_updates += 1
         self.logger.record("train/n_updates", self._n_updates, exclude="tensorboard")
@@ -421,7 +508,7 @@ class REINFORCE(OnPolicyAlgorithm):
         self.logger.record("train/entropy_loss", entropy_loss.item())
         self.logger.record("train/loss", loss.item())
         self.logger.record("train/grad_norm", grad_norm.item())
-        if with_baseline:
+        if with_value:
             self.logger.record("train/value_loss", value_loss.item())
             self.logger.record(
                 "train/explained_variance", explained_variance(values.detach().cpu().numpy(), returns.cpu().numpy())

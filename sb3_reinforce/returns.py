@@ -3,6 +3,7 @@ The return math of REINFORCE: discounted reward-to-go within episodes, and its s
 
     G_t = sum_{k=0}^{T-t-1} gamma^k * r_{t+k}        (reward-to-go, restarted at every episode end)
     G_norm_t = (G_t - mean(G)) / (std(G) + eps)      (over the whole batch, population std)
+    b_loo(i, t) = mean_{j != i, T_j > t} G^j_t        (leave-one-out baseline, 0 where no other episode lasted)
 
 The reward-to-go obeys the backward recursion ``G_t = r_t + gamma * G_{t+1}`` (``G_T = 0``): a first-order
 linear filter run over the reversed rewards, which ``scipy.signal.lfilter`` evaluates in C
@@ -14,7 +15,7 @@ import numpy as np
 import torch as th
 from scipy.signal import lfilter
 
-__all__ = ["discounted_returns", "episode_bounds", "normalize_returns"]
+__all__ = ["discounted_returns", "episode_bounds", "leave_one_out_baseline", "normalize_returns"]
 
 
 def _discount_cumsum(rewards: np.ndarray, gamma: float) -> np.ndarray:
@@ -78,3 +79,31 @@ def normalize_returns(returns: th.Tensor, eps: float = 1e-8) -> th.Tensor:
     """
     centered = returns - returns.mean()
     return centered / (centered.pow(2).mean().sqrt() + eps)
+
+
+def leave_one_out_baseline(returns: np.ndarray, episode_lengths: np.ndarray) -> np.ndarray:
+    """
+    Critic-free baseline for a batch of whole episodes: for step ``t`` of episode ``i``, the mean of ``G_t`` over
+    the *other* episodes of the batch that lasted more than ``t`` steps (RLOO's leave-one-out mean, with the time
+    index standing in for the state)::
+
+        b(i, t) = sum_{j != i, T_j > t} G^j_t / #{j != i : T_j > t}      (0 when no other episode reached step t)
+
+    The batch's episodes are sampled independently, so ``b(i, t)`` does not depend on the actions of episode ``i``:
+    ``E[grad log pi(a^i_t | s^i_t) * b(i, t)] = E[b(i, t)] * E[grad log pi(a^i_t | s^i_t) | s^i_t] = 0``, and
+    ``G - b`` keeps the policy gradient unbiased.
+
+    :param returns: The batch's returns ``G``, episode after episode, shape ``(n_steps,)``
+    :param episode_lengths: Length of each episode, in order (summing to ``n_steps``)
+    :return: The baseline, float64, shape ``(n_steps,)``
+    """
+    returns = np.asarray(returns, dtype=np.float64)
+    episode_lengths = np.asarray(episode_lengths, dtype=np.int64)
+    if returns.ndim != 1 or episode_lengths.sum() != len(returns):
+        raise ValueError(f"episode_lengths sum to {episode_lengths.sum()}, but there are {len(returns)} returns")
+    # Time index of every step within its episode: 0, 1, ..., T_i - 1 for each episode i
+    starts = np.repeat(np.cumsum(episode_lengths) - episode_lengths, episode_lengths)
+    time_index = np.arange(len(returns)) - starts
+    totals = np.bincount(time_index, weights=returns)[time_index]  # sum over every episode at step t
+    others = np.bincount(time_index)[time_index] - 1  # episodes other than this one at step t
+    return np.where(others > 0, (totals - returns) / np.maximum(others, 1), 0.0)

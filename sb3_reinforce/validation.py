@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-BASELINES = (None, "value")
+BASELINES = (None, "value", "loo")
 
 
 def _is_int(value: Any) -> bool:
@@ -39,6 +39,8 @@ def validate_hyperparameters(
     vf_coef: Any,
     max_grad_norm: Any,
     max_rollout_steps: Any,
+    n_value_steps: Any = 0,
+    value_learning_rate: Any = None,
 ) -> None:
     """
     Raise a ``ValueError`` naming the first invalid argument and the values it allows.
@@ -61,6 +63,19 @@ def validate_hyperparameters(
         if max_grad_norm == 0:
             raise ValueError("`max_grad_norm` must be None (no clipping) or a finite number > 0, got 0")
     check_int("max_rollout_steps", max_rollout_steps, 1)
+    check_int("n_value_steps", n_value_steps, 0)
+    if n_value_steps and baseline != "value":
+        raise ValueError(
+            f"`n_value_steps` ({n_value_steps}) fits the value baseline: use it with baseline='value', "
+            f"got baseline={baseline!r}"
+        )
+    if value_learning_rate is not None and not callable(value_learning_rate):
+        check_real(
+            "value_learning_rate",
+            value_learning_rate,
+            0.0,
+            allowed="None (the policy's learning rate), a finite number >= 0 or a schedule (callable)",
+        )
     if _is_int(min_steps) and min_steps > max_rollout_steps:
         raise ValueError(f"`min_steps` ({min_steps}) cannot exceed `max_rollout_steps` ({max_rollout_steps})")
 

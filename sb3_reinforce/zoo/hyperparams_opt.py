@@ -1,25 +1,38 @@
 """
-Optuna search space of REINFORCE for rl-baselines3-zoo's ``--optimize``.
+Optuna search space of REINFORCE, for rl-baselines3-zoo's ``--optimize`` and for ``benchmarks/tune.py``.
 
-``sample_reinforce_params`` is the zoo's sampler signature ``(trial, n_actions, n_envs, additional_args)``
-and returns constructor arguments of :class:`~sb3_reinforce.REINFORCE`. ``convert_reinforce_params`` turns
-the raw values Optuna stores for a trial (``study.trials[i].params``) into zoo hyperparameters, which is what
-the zoo's ``--trial-id`` loading uses. The number of environments is searched too: it is applied by
-:class:`sb3_reinforce.zoo.exp_manager.ReinforceExperimentManager` before the trial's environments are built.
+- :func:`suggest_reinforce_params` asks the trial for every searched value (the raw values Optuna stores).
+- :func:`zoo_entry` turns those raw values into an entry of a zoo hyperparameter file (plain YAML values:
+  ``lin_<x>`` schedules, ``policy_kwargs`` as a Python string), which is what ``--trial-id`` loading
+  (``convert_reinforce_params``) and a study's output config use.
+- ``sample_reinforce_params`` is the zoo's sampler signature ``(trial, n_actions, n_envs, additional_args)``
+  and returns constructor arguments of :class:`~sb3_reinforce.REINFORCE` (the same entry, parsed as the zoo
+  parses a file). The number of environments is searched too: it is applied by
+  :class:`sb3_reinforce.zoo.exp_manager.ReinforceExperimentManager` before the trial's environments are built.
+
+Every lever keeps the update Monte-Carlo policy gradient (one step per batch of whole episodes): batch size,
+environments, learning-rate schedule, discount, network, entropy bonus, clipping, return standardization and
+the baseline (none, a learned ``V(s)`` fitted by ``n_value_steps`` steps of its own, or the leave-one-out mean).
 """
 
 from typing import Any
 
 import optuna
+import torch as th
 from torch import nn
 
 __all__ = [
     "ACTIVATIONS",
+    "BASELINE_CHOICES",
     "NET_ARCHS",
     "N_ENVS_CHOICES",
+    "N_VALUE_STEPS_CHOICES",
     "convert_reinforce_params",
+    "parse_zoo_entry",
     "sample_reinforce_params",
     "suggest_n_envs",
+    "suggest_reinforce_params",
+    "zoo_entry",
 ]
 
 #: Hidden layers of the policy (and of the value network, with a baseline). "seed": the seed's 10-10.
@@ -32,6 +45,10 @@ NET_ARCHS: dict[str, list[int]] = {
 ACTIVATIONS: dict[str, type[nn.Module]] = {"tanh": nn.Tanh, "relu": nn.ReLU}
 #: Numbers of parallel environments searched (``n_envs``).
 N_ENVS_CHOICES = (1, 2, 4, 8)
+#: Baselines searched: stored as strings ("none" for None).
+BASELINE_CHOICES = ("none", "value", "loo")
+#: Value-regression steps per batch searched with ``baseline="value"`` (0: one joint step with the policy).
+N_VALUE_STEPS_CHOICES = (0, 5, 20, 80)
 
 
 def suggest_n_envs(trial: optuna.Trial) -> int:
@@ -44,29 +61,64 @@ def suggest_n_envs(trial: optuna.Trial) -> int:
     return int(trial.suggest_categorical("n_envs", N_ENVS_CHOICES))
 
 
-def convert_reinforce_params(sampled_params: dict[str, Any]) -> dict[str, Any]:
+def suggest_reinforce_params(trial: optuna.Trial) -> dict[str, Any]:
     """
-    Convert the values Optuna sampled (and stores) into zoo hyperparameters for REINFORCE.
+    Ask the trial for every searched value. A leave-one-out baseline needs two episodes per batch: a trial
+    that samples it with ``n_envs * n_episodes == 1`` is pruned.
 
-    :param sampled_params: A trial's ``params``: ``learning_rate``, ``one_minus_gamma``, ``n_episodes``,
-        ``net_arch`` (a key of ``NET_ARCHS``), ``activation_fn`` (a key of ``ACTIVATIONS``), ``baseline``
-        (``"none"`` or ``"value"``), ``ent_coef``, ``max_grad_norm`` (0 means no clipping),
-        ``normalize_returns`` and optionally ``n_envs``
+    :param trial: The Optuna trial
+    :return: The raw values, as ``trial.params`` stores them
+    :raises optuna.TrialPruned: for a leave-one-out baseline with one episode per batch
+    """
+    suggest_n_envs(trial)
+    trial.suggest_float("learning_rate", 1e-4, 3e-2, log=True)
+    trial.suggest_categorical("lr_schedule", ["constant", "linear"])
+    trial.suggest_float("one_minus_gamma", 1e-3, 0.1, log=True)
+    trial.suggest_categorical("n_episodes", [1, 2, 4, 8])  # per env: a batch of n_episodes * n_envs
+    trial.suggest_categorical("net_arch", list(NET_ARCHS))
+    trial.suggest_categorical("activation_fn", list(ACTIVATIONS))
+    baseline = trial.suggest_categorical("baseline", BASELINE_CHOICES)
+    if baseline == "value":
+        if trial.suggest_categorical("n_value_steps", N_VALUE_STEPS_CHOICES) > 0:
+            trial.suggest_float("value_learning_rate", 1e-4, 1e-2, log=True)
+    trial.suggest_float("ent_coef", 1e-8, 0.05, log=True)
+    trial.suggest_categorical("max_grad_norm", [0.0, 0.5, 1.0, 5.0])
+    trial.suggest_categorical("normalize_returns", [True, False])
+    params = dict(trial.params)
+    if baseline == "loo" and params["n_envs"] * params["n_episodes"] < 2:
+        raise optuna.TrialPruned("baseline='loo' needs n_envs * n_episodes >= 2")
+    # Show the real value next to the sampled one in the study's reports
+    trial.set_user_attr("gamma", 1.0 - params["one_minus_gamma"])
+    return params
+
+
+def zoo_entry(sampled_params: dict[str, Any]) -> dict[str, Any]:
+    """
+    The zoo hyperparameters of a trial, as they would be written in a zoo yml file.
+
+    :param sampled_params: A trial's ``params`` (see :func:`suggest_reinforce_params`); ``lr_schedule``,
+        ``n_value_steps`` and ``value_learning_rate`` may be missing (trials of older studies: constant, joint step)
     :return: Hyperparameters as in a zoo config (``n_envs`` included when it was sampled)
     """
     params = dict(sampled_params)
+    learning_rate = float(params.pop("learning_rate"))
+    linear = params.pop("lr_schedule", "constant") == "linear"
+    net_arch = list(NET_ARCHS[params.pop("net_arch")])
+    activation = ACTIVATIONS[params.pop("activation_fn")].__name__
+    baseline = params.pop("baseline")
     hyperparams: dict[str, Any] = {
-        "learning_rate": params.pop("learning_rate"),
+        "learning_rate": f"lin_{learning_rate!r}" if linear else learning_rate,
         "gamma": 1.0 - params.pop("one_minus_gamma"),
         "n_episodes": params.pop("n_episodes"),
-        "baseline": None if params.pop("baseline") == "none" else "value",
+        "baseline": None if baseline == "none" else baseline,
         "ent_coef": params.pop("ent_coef"),
         "normalize_returns": params.pop("normalize_returns"),
-        "policy_kwargs": dict(
-            net_arch=list(NET_ARCHS[params.pop("net_arch")]),
-            activation_fn=ACTIVATIONS[params.pop("activation_fn")],
-        ),
+        "policy_kwargs": f"dict(net_arch={net_arch}, activation_fn=nn.{activation})",
     }
+    n_value_steps = params.pop("n_value_steps", 0)
+    if n_value_steps:
+        hyperparams["n_value_steps"] = n_value_steps
+        hyperparams["value_learning_rate"] = params.pop("value_learning_rate")
     max_grad_norm = params.pop("max_grad_norm")
     hyperparams["max_grad_norm"] = None if max_grad_norm == 0 else max_grad_norm
     if "n_envs" in params:
@@ -74,6 +126,33 @@ def convert_reinforce_params(sampled_params: dict[str, Any]) -> dict[str, Any]:
     if params:
         raise ValueError(f"Unknown REINFORCE search parameters {sorted(params)}")
     return hyperparams
+
+
+def parse_zoo_entry(hyperparams: dict[str, Any]) -> dict[str, Any]:
+    """
+    Parse zoo hyperparameters as rl_zoo3 parses a file: ``policy_kwargs`` strings evaluated with ``nn`` and
+    ``th`` in scope, ``lin_<x>`` and numeric learning rates turned into schedules.
+
+    :param hyperparams: Zoo hyperparameters (not modified)
+    :return: A new dict, ready for the constructor (with the zoo keys it had, such as ``n_envs``)
+    """
+    from rl_zoo3.exp_manager import ExperimentManager
+
+    parsed = dict(hyperparams)
+    if isinstance(parsed.get("policy_kwargs"), str):
+        parsed["policy_kwargs"] = eval(parsed["policy_kwargs"], {"nn": nn, "th": th, "dict": dict})
+    return ExperimentManager._preprocess_schedules(parsed)
+
+
+def convert_reinforce_params(sampled_params: dict[str, Any]) -> dict[str, Any]:
+    """
+    Convert the values Optuna stored for a trial into zoo hyperparameters (the zoo's ``--trial-id`` loading,
+    which then parses them as it parses a file).
+
+    :param sampled_params: A trial's ``params``
+    :return: :func:`zoo_entry` of them
+    """
+    return zoo_entry(sampled_params)
 
 
 def sample_reinforce_params(
@@ -95,17 +174,6 @@ def sample_reinforce_params(
             f"The trial sampled n_envs={sampled_n_envs} but its environment has {n_envs}: run the search through "
             "`python -m sb3_reinforce.zoo train --algo reinforce --optimize ...`, which applies the sampled n_envs."
         )
-    sampled: dict[str, Any] = {
-        "learning_rate": trial.suggest_float("learning_rate", 1e-4, 3e-2, log=True),
-        "one_minus_gamma": trial.suggest_float("one_minus_gamma", 1e-3, 0.1, log=True),
-        "n_episodes": trial.suggest_categorical("n_episodes", [1, 2, 4, 8]),  # per env: batch of n_episodes * n_envs
-        "net_arch": trial.suggest_categorical("net_arch", list(NET_ARCHS)),
-        "activation_fn": trial.suggest_categorical("activation_fn", list(ACTIVATIONS)),
-        "baseline": trial.suggest_categorical("baseline", ["none", "value"]),
-        "ent_coef": trial.suggest_float("ent_coef", 1e-8, 0.05, log=True),
-        "max_grad_norm": trial.suggest_categorical("max_grad_norm", [0.0, 0.5, 1.0, 5.0]),
-        "normalize_returns": trial.suggest_categorical("normalize_returns", [True, False]),
-    }
-    # Show the real value next to the sampled one in the study's reports
-    trial.set_user_attr("gamma", 1.0 - sampled["one_minus_gamma"])
-    return convert_reinforce_params(sampled)
+    kwargs = parse_zoo_entry(zoo_entry(suggest_reinforce_params(trial)))
+    del kwargs["n_envs"]
+    return kwargs
