@@ -90,7 +90,7 @@ def export(study: optuna.Study, args: argparse.Namespace, base: dict[str, Any]) 
         (args.study_dir / "best_config.yml").write_text(header + yaml.safe_dump({args.env: entry}, sort_keys=True))
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--env", required=True)
     parser.add_argument("--base-config", type=Path, required=True, help="zoo yml whose entry for --env the trials start from")
@@ -106,7 +106,7 @@ def main() -> None:
     parser.add_argument("--fixed", type=Path, default=None, help="yml of search parameters held fixed (PartialFixedSampler)")
     parser.add_argument("--enqueue", type=Path, default=None, help="yml list of parameter sets tried first (once per study)")
     parser.add_argument("--sampler-seed", type=int, default=None)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if len(args.seeds) < 2:
         parser.error("--seeds: a trial needs at least 2 seeds")
     base = dict(yaml.load(args.base_config.read_text(), Loader=yaml.UnsafeLoader)[args.env])
@@ -132,6 +132,10 @@ def main() -> None:
         for params in yaml.safe_load(args.enqueue.read_text()):
             study.enqueue_trial(params, skip_if_exists=True)
     states = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)
+    if len(study.get_trials(deepcopy=False, states=states)) >= args.max_trials:
+        print(f"The study has its {args.max_trials} finished trials: nothing to do")
+        export(study, args, base)
+        return
     study.optimize(
         build_objective(args, base),
         callbacks=[

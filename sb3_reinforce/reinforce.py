@@ -316,6 +316,12 @@ class REINFORCE(OnPolicyAlgorithm):
             self.rollout_buffer.reset()
         return result
 
+    def _update_current_progress_remaining(self, num_timesteps: int, total_timesteps: int) -> None:
+        # The last batch finishes its episodes past total_timesteps: without the floor, a schedule would be read
+        # at a negative progress (a linear learning rate below 0, i.e. one step of gradient *ascent*).
+        super()._update_current_progress_remaining(num_timesteps, total_timesteps)
+        self._current_progress_remaining = max(0.0, self._current_progress_remaining)
+
     def _check_finite(self, new_obs: Any, rewards: np.ndarray) -> None:
         # Fast path, once per step: a NaN/inf anywhere makes a sum non-finite (a sum that overflows only
         # sends us on to the exact checks below, which then find nothing).

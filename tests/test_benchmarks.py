@@ -86,3 +86,32 @@ def test_memory_env_alone_tiny_budget(tmp_path: Path) -> None:
     (row,) = read_rows(out)
     assert (row["algo"], row["env_id"], row["n_envs"], row["steps"]) == ("random", "CartPole-v1", "2", "300")
     assert float(row["peak_rss_mib"]) >= float(row["rss_before_learn_mib"]) > 0
+
+
+def test_tune_tiny_budget(tmp_path: Path) -> None:
+    # Two trials of two seeds each, scored on the mean of the last evaluations of every seed; the first is enqueued.
+    tune = load("tune")
+    (tmp_path / "fixed.yml").write_text("net_arch: tiny\nn_envs: 2\n")
+    (tmp_path / "enqueue.yml").write_text(
+        "- {learning_rate: 0.003, lr_schedule: linear, baseline: value, n_value_steps: 5, value_learning_rate: 0.001}\n"
+    )
+    study_dir = tmp_path / "study"
+    args = ["--env", "CartPole-v1", "--base-config", str(Path(__file__).parents[1] / "zoo_configs" / "reinforce.yml")]
+    args += ["--study-dir", str(study_dir), "--budget", "600", "--eval-freq", "200", "--eval-episodes", "2"]
+    args += ["--score-last", "2", "--max-trials", "2", "--fixed", str(tmp_path / "fixed.yml")]
+    args += ["--enqueue", str(tmp_path / "enqueue.yml"), "--sampler-seed", "0"]
+    tune.main(args)
+    trials = read_rows(study_dir / "trials.csv")
+    assert len(trials) == 2 and all(t["state"] == "COMPLETE" for t in trials)
+    assert trials[0]["params_n_value_steps"] == "5" and all(t["params_net_arch"] == "tiny" for t in trials)
+    for trial in trials:
+        number = int(trial["number"])
+        scores = []
+        for seed in (100, 101):
+            rows = read_rows(study_dir / "trials" / f"{number:03d}" / "per_run" / f"reinforce_seed{seed}.csv")
+            scores.append(sum(float(r["mean_return"]) for r in rows[-2:]) / 2)
+        assert math.isclose(float(trial["value"]), sum(scores) / 2)
+    assert (study_dir / "best_config.yml").read_text().startswith("# Trial ")
+    # run again: the study is finished, nothing more is trained
+    tune.main(args)
+    assert len(read_rows(study_dir / "trials.csv")) == 2

@@ -21,7 +21,12 @@ from stable_baselines3.common.env_util import make_vec_env
 
 from sb3_reinforce import REINFORCE, seed_hyperparams
 from sb3_reinforce.zoo import config_path, main
-from sb3_reinforce.zoo.hyperparams_opt import convert_reinforce_params, sample_reinforce_params, suggest_n_envs
+from sb3_reinforce.zoo.hyperparams_opt import (
+    convert_reinforce_params,
+    parse_zoo_entry,
+    sample_reinforce_params,
+    suggest_n_envs,
+)
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -195,20 +200,50 @@ def test_seed_mountaincar_has_no_time_limit() -> None:
 
 def test_sampler_gives_valid_reinforce_arguments() -> None:
     study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=0))
-    for _ in range(12):
+    baselines = set()
+    for _ in range(30):
         trial = study.ask()
         n_envs = suggest_n_envs(trial)
-        kwargs = sample_reinforce_params(trial, 0, n_envs, {})
+        try:
+            kwargs = sample_reinforce_params(trial, 0, n_envs, {})
+        except optuna.TrialPruned:
+            # only a leave-one-out baseline with one episode per batch is pruned
+            assert trial.params["baseline"] == "loo" and trial.params["n_envs"] * trial.params["n_episodes"] == 1
+            study.tell(trial, state=optuna.trial.TrialState.PRUNED)
+            continue
         assert "n_envs" not in kwargs
+        baselines.add(trial.params["baseline"])
         model = REINFORCE("MlpPolicy", make_vec_env("CartPole-v1", n_envs=n_envs), device="cpu", **kwargs)
         assert model.n_envs == n_envs
-        # what the zoo's --trial-id loading does with the stored params
-        assert convert_reinforce_params(trial.params) == {**kwargs, "n_envs": n_envs}
+        assert model.n_value_steps == trial.params.get("n_value_steps", 0)
+        # what the zoo's --trial-id loading does with the stored params: a zoo entry, parsed as the zoo parses files
+        entry = convert_reinforce_params(trial.params)
+        assert entry["n_envs"] == n_envs and yaml.safe_load(yaml.safe_dump(entry)) == entry  # plain YAML values
+        parsed = parse_zoo_entry(entry)
+        assert {k: v for k, v in parsed.items() if not callable(v) and k not in ("n_envs", "policy_kwargs")} == {
+            k: v for k, v in kwargs.items() if not callable(v) and k != "policy_kwargs"
+        }
+        assert parsed["policy_kwargs"] == kwargs["policy_kwargs"]
+        for progress in (1.0, 0.5):
+            assert parsed["learning_rate"](progress) == kwargs["learning_rate"](progress)
+        assert kwargs["learning_rate"](0.5) == trial.params["learning_rate"] * (
+            0.5 if trial.params["lr_schedule"] == "linear" else 1.0
+        )
         study.tell(trial, 0.0)
+    assert baselines == {"none", "value", "loo"}
     trial = study.ask()
     trial.suggest_categorical("n_envs", [1, 2, 4, 8])
     with pytest.raises(RuntimeError, match=r"sb3_reinforce\.zoo"):
         sample_reinforce_params(trial, 0, trial.params["n_envs"] * 3, {})
+
+
+def test_trials_of_older_studies_still_convert() -> None:
+    # trials stored before lr_schedule and n_value_steps were searched: a constant rate and the joint value step
+    old = dict(learning_rate=1e-3, one_minus_gamma=0.01, n_episodes=2, net_arch="small", activation_fn="tanh")
+    old.update(baseline="value", ent_coef=1e-4, max_grad_norm=0.0, normalize_returns=True, n_envs=4)
+    entry = convert_reinforce_params(old)
+    assert entry["learning_rate"] == 1e-3 and "n_value_steps" not in entry and entry["max_grad_norm"] is None
+    assert entry["policy_kwargs"] == "dict(net_arch=[64, 64], activation_fn=nn.Tanh)"
 
 
 def test_optimize_two_trials(tmp_path: Path) -> None:
@@ -232,7 +267,7 @@ def test_optimize_two_trials(tmp_path: Path) -> None:
     args += ["--storage", str(storage), "--study-name", "two-trials", "--trial-id", "1", "-f", str(tmp_path / "best")]
     assert main(args) == 0
     model = REINFORCE.load(tmp_path / "best" / "reinforce" / "CartPole-v1_1" / "CartPole-v1.zip", device="cpu")
-    trial = convert_reinforce_params(study.trials[1].params)
+    trial = parse_zoo_entry(convert_reinforce_params(study.trials[1].params))
     assert model.n_envs == trial["n_envs"]
     assert (model.n_episodes, model.baseline, model.gamma) == (trial["n_episodes"], trial["baseline"], trial["gamma"])
     assert model.policy_kwargs["net_arch"] == trial["policy_kwargs"]["net_arch"]
