@@ -6,9 +6,39 @@ The ``sb3-reinforce`` command:
 - ``sb3-reinforce report DIR [DIR ...]``: rebuild a result folder's tables and plot, print its markdown table
 """
 
+import contextlib
 import sys
+from collections.abc import Iterator
 
-__all__ = ["main"]
+__all__ = ["main", "missing_extra"]
+
+#: The top-level modules each optional extra installs (pyproject.toml's optional-dependencies).
+EXTRA_MODULES = {
+    "compare": ("rl_zoo3", "pandas", "matplotlib", "psutil", "tqdm", "yaml", "optuna"),
+    "zoo": ("rl_zoo3", "requests", "pandas", "moviepy", "cv2", "optuna", "yaml"),
+}
+
+
+@contextlib.contextmanager
+def missing_extra(command: str, extra: str) -> Iterator[None]:
+    """
+    Turn a ``ModuleNotFoundError`` for a module of ``extra`` into one line naming the extra, and exit status 2.
+
+    :param command: The command, for the message
+    :param extra: The optional dependency group (``compare``, ``zoo``) that provides the modules
+    """
+    try:
+        yield
+    except ModuleNotFoundError as error:
+        if (error.name or "").split(".")[0] not in EXTRA_MODULES[extra]:
+            raise
+        print(
+            f"{command}: error: the '{extra}' extra is not installed (no module {error.name!r}): "
+            f"pip install 'sb3-reinforce[{extra}]'",
+            file=sys.stderr,
+        )
+        sys.exit(2)
+
 
 _USAGE = """usage: sb3-reinforce {compare,seed,report} ...
 
@@ -26,17 +56,19 @@ def main(argv: list[str] | None = None) -> None:
         sys.exit(0 if argv else 2)
     command, rest = argv[0], argv[1:]
     if command == "compare":
-        from sb3_reinforce.compare.cli import main as compare_main
+        with missing_extra("sb3-reinforce compare", "compare"):
+            from sb3_reinforce.compare.cli import main as compare_main
 
-        compare_main(rest)
+            compare_main(rest)
     elif command == "seed":
         from sb3_reinforce.seed_reproduction import main as seed_main
 
         seed_main(rest)
     elif command == "report":
-        from sb3_reinforce.compare.render import main as report_main
+        with missing_extra("sb3-reinforce report", "compare"):
+            from sb3_reinforce.compare.render import main as report_main
 
-        report_main(rest)
+            report_main(rest)
     else:
         print(f"sb3-reinforce: unknown command {command!r}\n\n{_USAGE}", file=sys.stderr)
         sys.exit(2)

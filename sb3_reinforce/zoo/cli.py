@@ -12,7 +12,12 @@ import runpy
 import subprocess
 import sys
 from collections.abc import Callable, Iterator, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+from sb3_reinforce.cli import missing_extra
+
+if TYPE_CHECKING:
+    from sb3_reinforce.zoo.storage import FaultTolerance
 
 __all__ = ["COMMANDS", "main", "register"]
 
@@ -98,6 +103,11 @@ USAGE = f"""usage: {PROG} {{{",".join(COMMANDS)}}} [zoo arguments ...]
 rl-baselines3-zoo (rl_zoo3) with REINFORCE registered as `--algo reinforce`.
 Every argument after the command is rl_zoo3's; `{PROG} COMMAND --help` lists them.
 With --algo reinforce, `train` reads sb3-reinforce's zoo_configs/reinforce.yml unless -conf/--conf-file is given.
+
+`train --optimize` with a database --storage (postgresql://USER:PASSWORD@HOST:5432/DB) also takes:
+  --heartbeat-interval S  seconds between the heartbeats of a running trial (default: 60)
+  --grace-period S        a trial without a heartbeat for S seconds is failed and retried (default: 180)
+  --max-retry N           times a failed trial is retried, with the same hyperparameters (default: 3)
 """
 
 
@@ -119,6 +129,19 @@ def _check_env_id(args: Sequence[str]) -> None:
     close = difflib.get_close_matches(known.env, list(gym.envs.registry), n=3)
     hint = f" Did you mean {' or '.join(close)}?" if close else ""
     raise ZooUsageError(f"--env {known.env}: no such environment in the Gymnasium registry.{hint}")
+
+
+def _fault_tolerance_flags(args: Sequence[str]) -> tuple["FaultTolerance", list[str]]:
+    """Take this command's own flags (heartbeats and retries of database studies) out of the zoo's arguments."""
+    from sb3_reinforce.zoo.storage import FaultTolerance
+
+    defaults = FaultTolerance()
+    parser = argparse.ArgumentParser(add_help=False)
+    parser.add_argument("--heartbeat-interval", type=int, default=defaults.heartbeat_interval)
+    parser.add_argument("--grace-period", type=int, default=defaults.grace_period)
+    parser.add_argument("--max-retry", type=int, default=defaults.max_retry)
+    known, rest = parser.parse_known_args(args)
+    return FaultTolerance(known.heartbeat_interval, known.grace_period, known.max_retry), rest
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -143,17 +166,29 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ImportError as error:
         print(f"{PROG}: error: rl_zoo3 is not installed ({error}): pip install 'sb3-reinforce[zoo]'", file=sys.stderr)
         return 2
+    try:
+        with missing_extra(f"{PROG} {command}", "zoo"):
+            return _run(command, args)
+    except SystemExit as exit_:  # missing_extra's exit
+        return int(exit_.code or 0)
 
-    from sb3_reinforce.zoo.exp_manager import ZooUsageError
+
+def _run(command: str, args: list[str]) -> int:
+    """Run one zoo command with REINFORCE registered; usage and config errors become one line and status 2."""
+    from sb3_reinforce.zoo.exp_manager import ReinforceExperimentManager, ZooUsageError
+    from sb3_reinforce.zoo.storage import StorageError
 
     register()
+    fault_tolerance = ReinforceExperimentManager.fault_tolerance
     saved_argv = sys.argv
     sys.argv = [f"{PROG} {command}", *args]
     try:
         if command in _ENV_COMMANDS:
             _check_env_id(args)
+        if command == "train":
+            ReinforceExperimentManager.fault_tolerance, sys.argv[1:] = _fault_tolerance_flags(args)
         COMMANDS[command]()
-    except ZooUsageError as error:
+    except (ZooUsageError, StorageError) as error:
         print(f"{PROG} {command}: error: {error}", file=sys.stderr)
         return 2
     except SystemExit as exit_:
@@ -164,4 +199,5 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     finally:
         sys.argv = saved_argv
+        ReinforceExperimentManager.fault_tolerance = fault_tolerance
     return 0

@@ -8,11 +8,17 @@ rl_zoo3's ``ExperimentManager``, with what REINFORCE needs on top.
 - ``--optimize`` applies the trial's sampled ``n_envs``, records which worker (host:pid) ran each trial,
   and prunes trials whose hyperparameters make REINFORCE fail (non-finite loss, a rollout too long)
   instead of ending the whole study.
+- ``--optimize`` with a database ``--storage`` (PostgreSQL, any algorithm) runs with heartbeats, retries the
+  trials of dead workers and reconnects after a dropped connection (see :mod:`sb3_reinforce.zoo.storage`);
+  with ``--max-total-trials``, every worker keeps going until the study holds exactly that many finished
+  trials, running the retries of workers that died.
 """
 
 import inspect
 import os
 import socket
+import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +33,13 @@ from sb3_reinforce.reinforce import NonFiniteError
 from sb3_reinforce.validation import validate_hyperparameters
 from sb3_reinforce.zoo.configs import config_path
 from sb3_reinforce.zoo.hyperparams_opt import suggest_n_envs
+from sb3_reinforce.zoo.storage import (
+    DATABASE_ERRORS,
+    FaultTolerance,
+    check_direction,
+    is_database_url,
+    open_database_storage,
+)
 
 __all__ = ["ALGO_NAME", "ReinforceExperimentManager", "ZooUsageError"]
 
@@ -72,6 +85,11 @@ class ReinforceExperimentManager(ExperimentManager):
     rl_zoo3's ``ExperimentManager`` (same arguments) with REINFORCE's default config, early config checks
     and REINFORCE-aware hyperparameter optimization (see the module docstring).
     """
+
+    #: Heartbeats and retries of studies in a database (``sb3-reinforce-zoo train`` sets it from its flags).
+    fault_tolerance: FaultTolerance = FaultTolerance()
+    #: How long a worker keeps trying to reach a database that went away before it gives up (seconds).
+    reconnect_timeout: float = 300.0
 
     def __init__(self, args: Any, algo: str, *positional: Any, config: str | None = None, **kwargs: Any) -> None:
         if config is None and algo == ALGO_NAME:
@@ -153,3 +171,82 @@ class ReinforceExperimentManager(ExperimentManager):
             raise optuna.exceptions.TrialPruned(str(error)) from error
         finally:
             self.n_envs = config_n_envs
+
+    def hyperparameters_optimization(self) -> None:
+        """
+        rl_zoo3's optimization; with a database storage, a fault-tolerant one: the trials run one at a time
+        against a storage with heartbeats and retries (:func:`~sb3_reinforce.zoo.storage.open_database_storage`),
+        then rl_zoo3's own code writes the report of the finished study.
+        """
+        if not self.optimize_hyperparameters or not is_database_url(self.storage):
+            return super().hyperparameters_optimization()
+        assert self.storage is not None
+        storage = open_database_storage(self.storage, self.fault_tolerance)
+        study = optuna.create_study(
+            sampler=self._create_sampler(self.sampler),
+            pruner=self._create_pruner(self.pruner),
+            storage=storage,
+            study_name=self.study_name,
+            load_if_exists=True,
+            direction="maximize",
+        )
+        check_direction(study, optuna.study.StudyDirection.MAXIMIZE)
+        self.study_name = study.study_name
+        try:
+            self._run_trials(study)
+        except KeyboardInterrupt:
+            pass
+        # rl_zoo3 reports on the study (best trial, CSV, plots), told to run no trial
+        limits = self.n_trials, self.max_total_trials
+        self.n_trials, self.max_total_trials = 0, None
+        try:
+            super().hyperparameters_optimization()
+        finally:
+            self.n_trials, self.max_total_trials = limits
+
+    def _run_trials(self, study: optuna.Study) -> None:
+        """
+        Run trials until this worker's ``n_trials`` are done or, with ``max_total_trials``, until the study
+        holds that many finished (complete or pruned) trials. A worker that has nothing left to start waits
+        for the others' running trials: if their worker dies, the retry is run here.
+        """
+        if "command" not in study.user_attrs:
+            study.set_user_attr("command", " ".join(sys.orig_argv))
+        finished_states = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)
+        done_here = 0
+        lost_since: float | None = None
+        while True:
+            try:
+                optuna.storages.fail_stale_trials(study)  # dead workers' trials: FAIL, and a retry is enqueued
+                trials = study.get_trials(deepcopy=False)
+                lost_since = None
+            except DATABASE_ERRORS as error:
+                lost_since = self._wait_for_database(error, lost_since)
+                continue
+            if self.max_total_trials is None:
+                if done_here >= self.n_trials:
+                    return
+            else:
+                finished = sum(t.state in finished_states for t in trials)
+                running = sum(t.state == optuna.trial.TrialState.RUNNING for t in trials)
+                waiting = sum(t.state == optuna.trial.TrialState.WAITING for t in trials)
+                if finished >= self.max_total_trials:
+                    return
+                if finished + running >= self.max_total_trials and waiting == 0:
+                    time.sleep(self.fault_tolerance.heartbeat_interval)  # the last trials run elsewhere
+                    continue
+            try:
+                study.optimize(self.objective, n_trials=1, gc_after_trial=True)
+                done_here += 1
+            except DATABASE_ERRORS as error:
+                # The trial is left RUNNING without heartbeats: it is failed and retried after the grace period.
+                lost_since = self._wait_for_database(error, lost_since)
+
+    def _wait_for_database(self, error: BaseException, lost_since: float | None) -> float:
+        now = time.monotonic()
+        lost_since = now if lost_since is None else lost_since
+        if now - lost_since > self.reconnect_timeout:
+            raise RuntimeError(f"The study's database has been unreachable for {self.reconnect_timeout:.0f} s: {error}")
+        print(f"The study's database is unreachable ({str(error).strip().splitlines()[0]}); retrying")
+        time.sleep(min(self.fault_tolerance.heartbeat_interval, 5))
+        return lost_since

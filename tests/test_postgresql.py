@@ -1,0 +1,190 @@
+"""
+Distributed studies on a real PostgreSQL server (started for these tests, see ``tests/postgres.py``): several
+``sb3-reinforce-zoo train --optimize`` workers share one study; a killed worker or a restarted server loses no
+trial and counts none twice; bad ``--storage`` input is one line and exit status 2.
+
+Outside CI the tests that need the server skip when it cannot be started here; under ``CI=true`` they fail.
+"""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import optuna
+import pytest
+from optuna.trial import TrialState
+
+from sb3_reinforce import REINFORCE
+from sb3_reinforce.zoo import main
+from sb3_reinforce.zoo.storage import FaultTolerance, StorageError, retried_trial_number
+from tests.postgres import PostgresServer, ServerUnavailable, postgres_server
+
+REPO = Path(__file__).resolve().parents[1]
+FAST_HEARTBEAT = ["--heartbeat-interval", "1", "--grace-period", "4"]
+
+
+@pytest.fixture(scope="module")
+def postgres() -> Iterator[PostgresServer]:
+    try:
+        with postgres_server() as server:
+            yield server
+    except ServerUnavailable as error:
+        if os.environ.get("CI") == "true":
+            pytest.fail(f"CI must run the PostgreSQL tests, but the server could not be started: {error}")
+        pytest.skip(f"no PostgreSQL server here: {error}")
+
+
+def optimize_args(storage: str, study: str, budget: int, total: int) -> list[str]:
+    args = ["train", "--algo", "reinforce", "--env", "CartPole-v1", "-optimize", "--n-trials", "100"]
+    args += ["--max-total-trials", str(total), "-n", str(budget), "--n-evaluations", "1", "--eval-episodes", "2"]
+    args += ["--sampler", "random", "--pruner", "none", "--no-optim-plots", "--num-threads", "1", "--verbose", "0"]
+    return [*args, "--storage", storage, "--study-name", study, *FAST_HEARTBEAT]
+
+
+def start_worker(args: list[str], seed: int, cwd: Path) -> subprocess.Popen:
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]), CUDA_VISIBLE_DEVICES="")
+    return subprocess.Popen(
+        [sys.executable, "-m", "sb3_reinforce.zoo", *args, "--seed", str(seed), "-f", str(cwd / f"logs{seed}")],
+        cwd=cwd,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+
+
+def finish(worker: subprocess.Popen, timeout: float = 300) -> str:
+    output, _ = worker.communicate(timeout=timeout)
+    assert worker.returncode == 0, output[-3000:]
+    return output
+
+
+def wait_for_running_trial(storage: str, study_name: str, pid: int | None = None, timeout: float = 120) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        try:
+            trials = optuna.load_study(study_name=study_name, storage=storage).get_trials(states=(TrialState.RUNNING,))
+        except KeyError:  # the study does not exist yet
+            trials = []
+        if any(pid is None or t.user_attrs.get("worker", "").endswith(f":{pid}") for t in trials):
+            return
+        time.sleep(0.2)
+    raise TimeoutError(f"no running trial{'' if pid is None else f' of worker {pid}'} after {timeout} s")
+
+
+def check_exact_total(study: optuna.Study, total: int) -> list[optuna.trial.FrozenTrial]:
+    """Exactly `total` finished trials, every failed one retried once by a finished trial."""
+    trials = study.get_trials()
+    finished = [t for t in trials if t.state in (TrialState.COMPLETE, TrialState.PRUNED)]
+    assert len(finished) == total, [(t.number, t.state) for t in trials]
+    assert not [t for t in trials if t.state in (TrialState.RUNNING, TrialState.WAITING)]
+    failed = [t for t in trials if t.state == TrialState.FAIL]
+    retried = {retried_trial_number(t): t for t in finished}
+    for trial in failed:
+        assert trial.number in retried, f"failed trial {trial.number} was not retried"
+        # the retry keeps what the failed trial had sampled (killed early, it may not have sampled everything)
+        assert trial.params.items() <= retried[trial.number].params.items()
+    return failed
+
+
+def test_two_workers_one_study(postgres: PostgresServer, tmp_path: Path) -> None:
+    args = optimize_args(postgres.url, "two-workers", 1000, total=4)
+    workers = [start_worker(args, seed, tmp_path) for seed in (0, 1)]
+    for worker in workers:
+        finish(worker)
+    study = optuna.load_study(study_name="two-workers", storage=postgres.url)
+    assert study.direction == optuna.study.StudyDirection.MAXIMIZE
+    assert not check_exact_total(study, 4)
+    pids = {str(worker.pid) for worker in workers}
+    assert all(t.user_attrs["worker"].split(":")[-1] in pids for t in study.trials)
+
+    # The best trial trains with --trial-id, from the database
+    best = study.best_trial.number
+    args = ["train", "--algo", "reinforce", "--env", "CartPole-v1", "-n", "200", "--eval-freq", "-1", "--verbose", "0"]
+    args += ["--storage", postgres.url, "--study-name", "two-workers", "--trial-id", str(best), "-f", str(tmp_path / "best")]
+    assert main(args) == 0
+    model = REINFORCE.load(tmp_path / "best" / "reinforce" / "CartPole-v1_1" / "CartPole-v1.zip", device="cpu")
+    assert model.n_envs == study.best_trial.params["n_envs"]
+
+
+def test_killed_worker_loses_no_trial(postgres: PostgresServer, tmp_path: Path) -> None:
+    args = optimize_args(postgres.url, "killed-worker", 20_000, total=3)
+    victim = start_worker(args, 0, tmp_path)
+    wait_for_running_trial(postgres.url, "killed-worker", victim.pid)
+    survivor = start_worker(args, 1, tmp_path)
+    victim.send_signal(signal.SIGKILL)  # mid-trial: no chance to tell the study anything
+    victim.wait(timeout=30)
+    output = finish(survivor)
+    study = optuna.load_study(study_name="killed-worker", storage=postgres.url)
+    failed = check_exact_total(study, 3)
+    assert [t.user_attrs["worker"].split(":")[-1] for t in failed] == [str(victim.pid)], output[-2000:]
+
+
+def test_server_restart_during_trials(postgres: PostgresServer, tmp_path: Path) -> None:
+    args = optimize_args(postgres.url, "restarted-server", 20_000, total=4)
+    workers = [start_worker(args, seed, tmp_path) for seed in (0, 1)]
+    for worker in workers:
+        wait_for_running_trial(postgres.url, "restarted-server", worker.pid)
+    postgres.restart()  # every connection of both workers is closed
+    for worker in workers:
+        finish(worker)
+    check_exact_total(optuna.load_study(study_name="restarted-server", storage=postgres.url), 4)
+
+
+def run_main(args: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, list[str]]:
+    status = main(args)
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.strip() and "Warning" not in line]
+    return status, lines
+
+
+def test_wrong_credentials(postgres: PostgresServer, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    status, lines = run_main(optimize_args(postgres.url_with(password="wrong"), "any", 100, 1), capsys)
+    assert status == 2 and len(lines) == 1, lines
+    assert "password authentication failed" in lines[0] and "wrong" not in lines[0]  # the password is not shown
+
+
+def test_study_with_the_other_direction(postgres: PostgresServer, capsys: pytest.CaptureFixture[str]) -> None:
+    optuna.create_study(study_name="minimizing", storage=postgres.url, direction="minimize")
+    status, lines = run_main(optimize_args(postgres.url, "minimizing", 100, 1), capsys)
+    assert status == 2 and len(lines) == 1 and "minimize" in lines[0], lines
+    assert not optuna.load_study(study_name="minimizing", storage=postgres.url).trials
+
+
+def test_unreachable_server(capsys: pytest.CaptureFixture[str]) -> None:
+    # Port 1 on the loopback: nothing listens there
+    url = "postgresql+psycopg://user:secret@127.0.0.1:1/optuna"
+    status, lines = run_main(optimize_args(url, "any", 100, 1), capsys)
+    assert status == 2 and len(lines) == 1, lines
+    assert "cannot use the database" in lines[0] and "secret" not in lines[0]
+
+
+def test_missing_driver(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setitem(sys.modules, "psycopg", None)  # as if the [postgresql] extra were not installed
+    status, lines = run_main(optimize_args("postgresql+psycopg://user:pw@127.0.0.1:5432/optuna", "any", 100, 1), capsys)
+    assert status == 2 and len(lines) == 1, lines
+    assert "pip install 'sb3-reinforce[postgresql]'" in lines[0]
+
+
+def test_fault_tolerance_flags_are_checked(capsys: pytest.CaptureFixture[str]) -> None:
+    args = optimize_args("postgresql+psycopg://user:pw@127.0.0.1:1/optuna", "any", 100, 1)
+    status, lines = run_main([*args, "--grace-period", "1"], capsys)
+    assert status == 2 and len(lines) == 1 and "--grace-period" in lines[0], lines
+    with pytest.raises(StorageError, match="max-retry"):
+        FaultTolerance(max_retry=-1)
+
+
+def test_usage_documents_the_defaults(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["--help"]) == 0
+    usage = capsys.readouterr().out
+    defaults = FaultTolerance()
+    for flag, value in [
+        ("--heartbeat-interval", defaults.heartbeat_interval),
+        ("--grace-period", defaults.grace_period),
+        ("--max-retry", defaults.max_retry),
+    ]:
+        line = next(line for line in usage.splitlines() if line.strip().startswith(flag))
+        assert f"(default: {value})" in line
