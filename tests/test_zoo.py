@@ -336,7 +336,7 @@ def test_unknown_command(capsys: pytest.CaptureFixture[str]) -> None:
         ({"n_steps": 5}, "REINFORCE does not accept 'n_steps'"),
         ({"gae_lambda": 0.9, "batch_size": 64}, "REINFORCE does not accept 'batch_size', 'gae_lambda'"),
         ({"gamma": 1.5}, "`gamma` must be a finite number in [0.0, 1.0], got 1.5"),
-        ({"baseline": "critic"}, "`baseline` must be one of (None, 'value'), got 'critic'"),
+        ({"baseline": "critic"}, "`baseline` must be one of (None, 'value', 'loo'), got 'critic'"),
         ({"seed": 3}, "'seed' cannot be set in a config"),
     ],
 )

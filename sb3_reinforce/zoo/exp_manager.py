@@ -233,7 +233,7 @@ class ReinforceExperimentManager(ExperimentManager):
                 if finished >= self.max_total_trials:
                     return
                 if finished + running >= self.max_total_trials and waiting == 0:
-                    time.sleep(self.fault_tolerance.heartbeat_interval)  # the last trials run elsewhere
+                    time.sleep(min(self.fault_tolerance.heartbeat_interval, 5))  # the last trials run elsewhere
                     continue
             try:
                 study.optimize(self.objective, n_trials=1, gc_after_trial=True)
