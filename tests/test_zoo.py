@@ -262,15 +262,17 @@ def test_optimize_two_trials(tmp_path: Path) -> None:
     assert all(set(trial.params) >= {"n_envs", "learning_rate", "baseline", "net_arch"} for trial in study.trials)
     assert list((tmp_path / "reinforce").glob("report_CartPole-v1_2-trials-1000-random-median_*.csv"))
 
-    # Train with the hyperparameters of a trial (the zoo's --trial-id; trial 0 cannot be asked for that way)
-    args = ["train", "--algo", "reinforce", "--env", "CartPole-v1", "-n", "200", "--eval-freq", "-1", "--verbose", "0"]
-    args += ["--storage", str(storage), "--study-name", "two-trials", "--trial-id", "1", "-f", str(tmp_path / "best")]
-    assert main(args) == 0
-    model = REINFORCE.load(tmp_path / "best" / "reinforce" / "CartPole-v1_1" / "CartPole-v1.zip", device="cpu")
-    trial = parse_zoo_entry(convert_reinforce_params(study.trials[1].params))
-    assert model.n_envs == trial["n_envs"]
-    assert (model.n_episodes, model.baseline, model.gamma) == (trial["n_episodes"], trial["baseline"], trial["gamma"])
-    assert model.policy_kwargs["net_arch"] == trial["policy_kwargs"]["net_arch"]
+    # Train with the hyperparameters of a trial (the zoo's --trial-id; trial 0 too, which rl_zoo3 alone skips)
+    for number in (0, 1):
+        args = ["train", "--algo", "reinforce", "--env", "CartPole-v1", "-n", "200", "--eval-freq", "-1", "--verbose", "0"]
+        args += ["--storage", str(storage), "--study-name", "two-trials", "--trial-id", str(number)]
+        assert main([*args, "-f", str(tmp_path / f"trial{number}")]) == 0
+        path = tmp_path / f"trial{number}" / "reinforce" / "CartPole-v1_1" / "CartPole-v1.zip"
+        model = REINFORCE.load(path, device="cpu")
+        trial = parse_zoo_entry(convert_reinforce_params(study.trials[number].params))
+        assert model.n_envs == trial["n_envs"]
+        assert (model.n_episodes, model.baseline, model.gamma) == (trial["n_episodes"], trial["baseline"], trial["gamma"])
+        assert model.policy_kwargs["net_arch"] == trial["policy_kwargs"]["net_arch"]
 
 
 def test_distributed_study_two_workers(tmp_path: Path) -> None:

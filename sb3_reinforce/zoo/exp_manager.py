@@ -118,7 +118,13 @@ class ReinforceExperimentManager(ExperimentManager):
                     f"{self.config} has no entry for {env_id} (it has: {', '.join(sorted(entries))}). "
                     "Add one, or pass another file with -conf/--conf-file."
                 )
-        return super().read_hyperparameters()
+        hyperparams, saved_hyperparams = super().read_hyperparameters()
+        if self.trial_id == 0 and self.storage and self.study_name:
+            # rl_zoo3 tests `if self.trial_id:`, which skips trial 0: load it here, -params still on top
+            from_study = {**self.load_trial(self.storage, self.study_name, 0), **(self.custom_hyperparams or {})}
+            hyperparams.update(from_study)
+            saved_hyperparams.update(from_study)
+        return hyperparams, saved_hyperparams
 
     def _preprocess_hyperparams(self, hyperparams: dict[str, Any]) -> tuple[dict[str, Any], Any, list[BaseCallback], Any]:
         processed, env_wrapper, callbacks, vec_env_wrapper = super()._preprocess_hyperparams(hyperparams)
