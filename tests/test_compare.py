@@ -12,7 +12,7 @@ import pytest
 import sb3_reinforce
 from sb3_reinforce.compare import runner
 from sb3_reinforce.compare.cli import _check_resumable, build_parser, main, parse_specs, write_outputs
-from sb3_reinforce.compare.hyperparams import ZooConfigError, load_zoo_config
+from sb3_reinforce.compare.experiment import EVAL_SEED_OFFSET, build_run, known_algos, read_entry
 from sb3_reinforce.compare.render import update_readme
 from sb3_reinforce.compare.report import PER_RUN_DIR
 from sb3_reinforce.compare.runner import RESULT_COLUMNS, RunSpec, code_version
@@ -82,56 +82,136 @@ def test_rolling_mean_hand_computed() -> None:
 # ---------------------------------------------------------------- hyperparameters
 
 
-def test_zoo_configs_parsed_as_the_zoo() -> None:
-    ppo = load_zoo_config("ppo", "CartPole-v1")
+def test_zoo_entries_read_as_the_zoo_reads_them() -> None:
+    ppo = read_entry("ppo", "CartPole-v1")
     assert ppo.source.parts[-3:] == ("rl_zoo3", "hyperparams", "ppo.yml")  # the installed zoo's file
     assert (ppo.n_envs, ppo.n_timesteps) == (8, 100_000)
-    assert callable(ppo.model_kwargs["learning_rate"]) and ppo.model_kwargs["learning_rate"](1.0) == pytest.approx(1e-3)
-    assert "n_envs" not in ppo.model_kwargs and "n_timesteps" not in ppo.model_kwargs
-    a2c = load_zoo_config("a2c", "Acrobot-v1")
-    assert a2c.normalize and "normalize" not in a2c.model_kwargs
-    reinforce = load_zoo_config("reinforce", "CartPole-v1")
-    assert reinforce.source.name == "reinforce.yml" and reinforce.model_kwargs["policy"] == "MlpPolicy"
+    assert ppo.hyperparams["learning_rate"] == "lin_0.001"  # as written in the file
+    reinforce = read_entry("reinforce", "CartPole-v1")
+    assert reinforce.source.name == "reinforce.yml" and reinforce.hyperparams["policy"] == "MlpPolicy"
+    assert {"reinforce", "ppo", "a2c", "trpo"} <= set(known_algos())
 
 
 @pytest.mark.parametrize("config", sorted(Path(__file__).parent.parent.glob("benchmarks/configs/*.yml")), ids=lambda p: p.name)
-def test_benchmark_configs_load_and_build(config: Path) -> None:
+def test_benchmark_configs_load_and_build(config: Path, tmp_path: Path) -> None:
     # The committed benchmark configs are read again by every run of a resumed comparison: each entry must
-    # parse and build its model.
+    # parse and build its model through the zoo.
     import yaml
-
-    from sb3_reinforce import REINFORCE
 
     env_ids = list(yaml.load(config.read_text(), Loader=yaml.UnsafeLoader))
     assert env_ids
     for env_id in env_ids:
-        entry = load_zoo_config("reinforce", env_id, config)
-        REINFORCE(env=gym.make(env_id), **entry.model_kwargs)
+        built = build_run("reinforce", env_id, 0, 1000, tmp_path, config)
+        assert built.model.n_envs == built.entry.n_envs
 
 
-def test_malformed_config_is_a_config_error(tmp_path: Path) -> None:
+def test_malformed_config_is_an_error(tmp_path: Path) -> None:
     path = tmp_path / "r.yml"
     path.write_text("Acrobot-v1: 1e6, where: x). oops\n  n_envs: 1\n")
-    with pytest.raises(ZooConfigError, match="not valid YAML"):
-        load_zoo_config("reinforce", "Acrobot-v1", path)
+    with pytest.raises(ValueError, match="not valid YAML"):
+        read_entry("reinforce", "Acrobot-v1", path)
+    path.write_text("Acrobot-v1:\n  n_timesteps: 10\n  policy: MlpPolicy\n  n_steps: 5\n")
+    with pytest.raises(ValueError, match="does not accept 'n_steps'"):
+        read_entry("reinforce", "Acrobot-v1", path)
+    with pytest.raises(ValueError, match="no entry for CartPole-v1"):
+        read_entry("reinforce", "CartPole-v1", path)
 
 
-def test_reinforce_config_override(tmp_path: Path) -> None:
-    path = tmp_path / "r.yml"
-    path.write_text(
-        "Acrobot-v1:\n  n_envs: 2\n  n_timesteps: !!float 2e4\n  policy: 'MlpPolicy'\n  normalize: true\n"
-        '  gamma: 0.97\n  learning_rate: lin_0.01\n  policy_kwargs: "dict(net_arch=[8], activation_fn=nn.ReLU)"\n'
+def _wrappers(env: object) -> list[str]:
+    """The class names of a VecEnv's wrapper stack, then of its first environment's."""
+    names = []
+    while hasattr(env, "venv"):
+        names.append(type(env).__name__)
+        env = env.venv  # type: ignore[attr-defined]
+    names.append(type(env).__name__)
+    inner = env.envs[0]  # type: ignore[attr-defined]
+    while hasattr(inner, "env"):
+        names.append(type(inner).__name__)
+        inner = inner.env
+    return [*names, type(inner).__name__]
+
+
+def test_compare_builds_the_agent_zoo_train_builds(tmp_path: Path) -> None:
+    # The same entry and seed through `sb3-reinforce-zoo train` and through compare's build: the same
+    # hyperparameters, wrapper stack, first actions, and weights after a few updates (Pendulum-v1: normalization,
+    # 4 envs, policy_kwargs; REINFORCE makes one update per 8 episodes of 200 steps).
+    import torch as th
+    import yaml
+
+    from sb3_reinforce import REINFORCE
+    from sb3_reinforce.zoo import main as zoo_main
+
+    budget, seed = 3400, 5
+    args = ["train", "--algo", "reinforce", "--env", "Pendulum-v1", "-n", str(budget), "--seed", str(seed)]
+    assert zoo_main([*args, "--eval-freq", "-1", "--verbose", "0", "-f", str(tmp_path / "zoo"), "--num-threads", "1"]) == 0
+    run_dir = tmp_path / "zoo" / "reinforce" / "Pendulum-v1_1"
+    from_zoo = REINFORCE.load(run_dir / "Pendulum-v1.zip", device="cpu")
+
+    threads = th.get_num_threads()
+    th.set_num_threads(1)  # as the zoo run (--num-threads 1) and compare's runs: the same float sums
+    try:
+        built = build_run("reinforce", "Pendulum-v1", seed, budget, tmp_path / "compare")
+        # (no reset before learn: a VecNormalize reset updates its statistics)
+        built.model.learn(budget, callback=built.callbacks)
+    finally:
+        th.set_num_threads(threads)
+    saved = yaml.load((run_dir / "Pendulum-v1" / "config.yml").read_text(), Loader=yaml.UnsafeLoader)
+    assert dict(saved) == dict(built.entry.hyperparams)
+    wrappers = _wrappers(built.train_env)
+    assert wrappers[:3] == ["VecNormalize", "DummyVecEnv", "Monitor"] and "TimeLimit" in wrappers[3]  # rl_zoo3's own
+    assert wrappers[-1] == "PendulumEnv"
+    assert _wrappers(built.eval_env)[:2] == ["VecNormalize", "DummyVecEnv"] and not built.eval_env.training
+
+    assert built.model._n_updates == from_zoo._n_updates >= 2
+    for key, value in from_zoo.policy.state_dict().items():
+        th.testing.assert_close(built.model.policy.state_dict()[key], value, rtol=0, atol=0)
+    # and the same agent acts the same: the first actions after training, on the same observations
+    obs = np.stack([built.train_env.observation_space.sample() for _ in range(16)])
+    np.testing.assert_array_equal(
+        built.model.predict(obs, deterministic=True)[0], from_zoo.predict(obs, deterministic=True)[0]
     )
-    config = load_zoo_config("reinforce", "Acrobot-v1", path)
-    assert (config.n_envs, config.n_timesteps, config.normalize) == (2, 20_000, True)
-    assert config.normalize_kwargs == {"gamma": 0.97}  # the zoo normalizes rewards with the algorithm's gamma
-    assert config.model_kwargs["policy_kwargs"]["activation_fn"] is __import__("torch").nn.ReLU
-    assert config.model_kwargs["learning_rate"](0.5) == pytest.approx(0.005)
-    with pytest.raises(ZooConfigError, match="no hyperparameters for CartPole-v1"):
-        load_zoo_config("reinforce", "CartPole-v1", path)
-    path.write_text("Acrobot-v1:\n  n_timesteps: 10\n  frame_stack: 4\n")
-    with pytest.raises(ZooConfigError, match="frame_stack"):
-        load_zoo_config("reinforce", "Acrobot-v1", path)
+
+
+def test_tiny_compare_on_car_racing(tmp_path: Path) -> None:
+    # The shipped CarRacing-v3 entry's image wrappers (frame skip, resize, grayscale), frame stack, reward
+    # normalization and CNN policy, on 2 envs whose episodes are cut at 40 frames (env_kwargs) to keep it short;
+    # the evaluation runs on the standard env (1,000 frames an episode).
+    import yaml
+
+    shipped = yaml.load((Path(__file__).parents[1] / "zoo_configs" / "reinforce.yml").read_text(), Loader=yaml.UnsafeLoader)
+    entry = {**shipped["CarRacing-v3"], "n_envs": 2, "env_kwargs": {"max_episode_steps": 40}}
+    config = tmp_path / "car_racing.yml"
+    config.write_text(yaml.dump({"CarRacing-v3": entry}))
+    out = tmp_path / "cmp"
+    args = ["--env", "CarRacing-v3", "--algos", "reinforce", "--seeds", "1", "--budget", "1", "--eval-freq", "1000"]
+    args += ["--eval-episodes", "1"]
+    main([*args, "--reinforce-config", str(config), "--workers", "1", "--no-progress", "--out", str(out)])
+    results = pd.read_csv(out / "results.csv")
+    assert len(results) == 2 and results["steps"].iloc[-1] == 2 * 20  # one batch: 2 episodes of 40 frames, skip 2
+    built = build_run("reinforce", "CarRacing-v3", 0, 1, tmp_path / "zoo", config)
+    assert built.train_env.observation_space.shape == (2, 64, 64)  # 2 grayscale 64x64 frames, channel first
+    assert _wrappers(built.train_env)[:3] == ["VecTransposeImage", "VecFrameStack", "VecNormalize"]
+    assert {"GrayscaleObservation", "FrameSkip"} <= set(_wrappers(built.train_env))
+    assert built.eval_env.observation_space.shape == (2, 64, 64)
+
+
+def test_tiny_compare_with_env_kwargs(tmp_path: Path) -> None:
+    # Training with a longer time limit (env_kwargs), evaluation on the standard 200-step env, as the zoo does
+    config = tmp_path / "r.yml"
+    config.write_text(
+        "MountainCar-v0:\n  n_envs: 2\n  n_timesteps: 1000\n  policy: MlpPolicy\n  env_kwargs: {max_episode_steps: 500}\n"
+    )
+    out = tmp_path / "cmp"
+    args = ["--env", "MountainCar-v0", "--algos", "reinforce", "--seeds", "1", "--budget", "1", "--eval-freq", "1000"]
+    args += ["--eval-episodes", "1"]
+    main([*args, "--reinforce-config", str(config), "--workers", "1", "--no-progress", "--out", str(out)])
+    results = pd.read_csv(out / "results.csv")
+    assert results["steps"].iloc[-1] >= 2 * 500  # two training episodes of 500 steps (a random policy rarely ends sooner)
+    assert (results["mean_return"] == -200).all()  # evaluation episodes end at the standard 200 steps
+    built = build_run("reinforce", "MountainCar-v0", 0, 1, tmp_path / "zoo", config)
+    assert built.train_env.envs[0].spec.max_episode_steps == 500  # type: ignore[attr-defined]
+    assert built.eval_env.envs[0].spec.max_episode_steps == 200  # type: ignore[attr-defined]
+    assert EVAL_SEED_OFFSET == 10_000
 
 
 # ---------------------------------------------------------------- bad input: clear errors before training
@@ -141,14 +221,14 @@ def test_reinforce_config_override(tmp_path: Path) -> None:
     "args, message",
     [
         (["--env", "NoSuchEnv-v0"], "Unknown environment 'NoSuchEnv-v0'"),
-        (["--algos", "reinforce,dqn"], "Unknown algorithm"),
+        (["--algos", "reinforce,nosuchalgo"], "Unknown algorithm"),
         (["--seeds", "0"], "--seeds must be >= 1"),
         (["--eval-freq", "0"], "--eval-freq must be >= 1"),
         (["--threshold", "high"], "--threshold must be a number"),
         (["--budget", "lots"], "--budget must be"),
         (
             ["--env", "MountainCarContinuous-v0", "--algos", "reinforce"],
-            "REINFORCE has no hyperparameters for MountainCarContinuous-v0",
+            "has no entry for MountainCarContinuous-v0",
         ),
     ],
 )

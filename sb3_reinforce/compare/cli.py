@@ -1,5 +1,7 @@
 """
-``sb3-reinforce compare``: REINFORCE vs PPO vs A2C on one environment, same seeds, same evaluation protocol.
+``sb3-reinforce compare``: REINFORCE vs PPO vs A2C (or any algorithm rl_zoo3 knows) on one environment, same seeds,
+same evaluation protocol. Every run is built by rl_zoo3's experiment manager from the algorithm's zoo entry, as
+``sb3-reinforce-zoo train`` builds it (see :mod:`sb3_reinforce.compare.experiment`).
 
     sb3-reinforce compare --env CartPole-v1 --seeds 3
 
@@ -27,7 +29,7 @@ import gymnasium as gym
 import pandas as pd
 from tqdm import tqdm
 
-from sb3_reinforce.compare.hyperparams import ALGOS, ZooConfigError, load_zoo_config
+from sb3_reinforce.compare.experiment import DEFAULT_ALGOS, known_algos, read_entry
 from sb3_reinforce.compare.report import PER_RUN_DIR, load_summaries, plot_learning_curves, summary_table, to_markdown
 from sb3_reinforce.compare.runner import RunSpec, run
 from sb3_reinforce.stats import SOLVE_THRESHOLDS
@@ -45,7 +47,11 @@ def build_parser() -> argparse.ArgumentParser:
         description="Train REINFORCE, PPO and A2C on the same env with the same seeds and evaluation protocol.",
     )
     parser.add_argument("--env", default="CartPole-v1", help="Gymnasium env id (default: CartPole-v1)")
-    parser.add_argument("--algos", default=",".join(ALGOS), help=f"comma-separated, among {','.join(ALGOS)} (default: all)")
+    parser.add_argument(
+        "--algos",
+        default=",".join(DEFAULT_ALGOS),
+        help=f"comma-separated rl_zoo3 algorithms, REINFORCE included (default: {','.join(DEFAULT_ALGOS)}; also trpo, ...)",
+    )
     parser.add_argument("--seeds", type=int, default=3, help="number of seeds (default: 3)")
     parser.add_argument("--first-seed", type=int, default=0, help="seeds are first-seed, first-seed+1, ... (default: 0)")
     parser.add_argument(
@@ -87,10 +93,10 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None]:
         gym.spec(args.env)
     except gym.error.Error as error:
         raise ValueError(f"Unknown environment {args.env!r}: {error}") from None
-    algos = [algo.strip().lower() for algo in args.algos.split(",") if algo.strip()]
-    unknown = [algo for algo in algos if algo not in ALGOS]
+    algos = list(dict.fromkeys(algo.strip().lower() for algo in args.algos.split(",") if algo.strip()))
+    unknown = [algo for algo in algos if algo not in known_algos()]
     if unknown or not algos:
-        raise ValueError(f"Unknown algorithm(s) {unknown or args.algos!r}: choose among {', '.join(ALGOS)}")
+        raise ValueError(f"Unknown algorithm(s) {unknown or args.algos!r}: choose among {', '.join(known_algos())}")
     if args.seeds < 1:
         raise ValueError(f"--seeds must be >= 1, got {args.seeds}")
     if args.eval_episodes < 1:
@@ -99,9 +105,9 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None]:
     config_paths = {algo: None for algo in algos}
     if args.reinforce_config is not None:
         config_paths["reinforce"] = args.reinforce_config
-    configs = {algo: load_zoo_config(algo, args.env, config_paths[algo]) for algo in algos}
+    configs = {algo: read_entry(algo, args.env, config_paths[algo]) for algo in algos}
     if args.budget in ("ppo", "zoo"):
-        ppo_budget = load_zoo_config("ppo", args.env).n_timesteps if args.budget == "ppo" else 0
+        ppo_budget = read_entry("ppo", args.env).n_timesteps if args.budget == "ppo" else 0
         budgets = {algo: ppo_budget or configs[algo].n_timesteps for algo in algos}
     else:
         try:
@@ -211,7 +217,7 @@ def write_outputs(out_dir: Path, env_id: str, threshold: float | None) -> pd.Dat
         return None
     frames = [pd.read_csv(out_dir / PER_RUN_DIR / f"{algo}_seed{seed}.csv") for algo, seed in summaries]
     results = pd.concat(frames, ignore_index=True)
-    order = {algo: i for i, algo in enumerate(ALGOS)}
+    order = {algo: i for i, algo in enumerate([*DEFAULT_ALGOS, *sorted(set(results["algo"]) - set(DEFAULT_ALGOS))])}
     results = results.sort_values(["algo", "seed", "eval_index"], key=lambda c: c.map(order) if c.name == "algo" else c)
     results.to_csv(out_dir / "results.csv", index=False)
     table = summary_table(results, summaries, threshold)
@@ -229,7 +235,7 @@ def main(argv: list[str] | None = None) -> None:
     try:
         specs, threshold = parse_specs(args)
         todo = _check_resumable(specs, out_dir)
-    except (ValueError, ZooConfigError) as error:
+    except ValueError as error:
         parser.error(str(error))
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "comparison.json").write_text(json.dumps(dict(env=args.env, threshold=threshold), indent=2))

@@ -84,7 +84,7 @@ def summary_table(results: pd.DataFrame, summaries: dict[tuple[str, int], dict],
         finals = [float(df["mean_return"].iloc[-1]) for df in per_seed]
         low, high = bootstrap_ci(finals, iqm)
         row = {
-            "algorithm": _ALGO_NAMES.get(str(algo), str(algo)),
+            "algorithm": _ALGO_NAMES.get(str(algo), str(algo).upper()),
             "seeds": len(per_seed),
             "steps": f"{int(np.median([df['steps'].iloc[-1] for df in per_seed])):,}",
             "final score, IQM [95% CI]": f"{iqm(finals):.1f} [{low:.1f}, {high:.1f}]",
@@ -157,7 +157,7 @@ def plot_learning_curves(results: pd.DataFrame, threshold: float | None, path: P
         steps = algo_df.groupby("eval_index")["steps"].median().loc[table.index].to_numpy()
         mean, low, high = _mean_ci_band(table.to_numpy().T)
         n_seeds = table.shape[1]
-        (line,) = ax.plot(steps, mean, label=f"{_ALGO_NAMES.get(str(algo), algo)} ({n_seeds} seeds)")
+        (line,) = ax.plot(steps, mean, label=f"{_ALGO_NAMES.get(str(algo), str(algo).upper())} ({n_seeds} seeds)")
         ax.fill_between(steps, low, high, color=line.get_color(), alpha=0.2)
     _finish_plot(fig, ax, threshold, "environment steps", "evaluation return (deterministic)", title, path)
 

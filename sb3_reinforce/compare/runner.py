@@ -8,6 +8,7 @@ Each evaluation is appended at once to the run's CSV, so an interrupted run keep
 import csv
 import json
 import subprocess
+import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,21 +17,15 @@ from typing import Any
 import numpy as np
 import psutil
 import torch as th
-from stable_baselines3 import A2C, PPO
-from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
-from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.evaluation import evaluate_policy
-from stable_baselines3.common.vec_env import VecEnv, VecNormalize, sync_envs_normalization
+from stable_baselines3.common.vec_env import VecEnv, sync_envs_normalization
 
-from sb3_reinforce.compare.hyperparams import ZooConfig, load_zoo_config
+from sb3_reinforce.compare.experiment import build_run
 from sb3_reinforce.compare.report import PER_RUN_DIR
-from sb3_reinforce.reinforce import REINFORCE
 from sb3_reinforce.version import __version__
 
 __all__ = ["RESULT_COLUMNS", "ComparisonEvalCallback", "RunSpec", "code_version", "run"]
-
-ALGO_CLASSES: dict[str, type[BaseAlgorithm]] = {"reinforce": REINFORCE, "ppo": PPO, "a2c": A2C}
 
 #: Columns of ``results.csv``: one row per algorithm, seed and evaluation point.
 RESULT_COLUMNS = [
@@ -55,12 +50,13 @@ class RunSpec:
     Everything that defines one run (and the settings a resumed run must share).
 
     :param env_id: The environment id
-    :param algo: ``"reinforce"``, ``"ppo"`` or ``"a2c"``
+    :param algo: An algorithm rl_zoo3 knows (``"reinforce"``, ``"ppo"``, ``"a2c"``, ``"trpo"``, ...)
     :param seed: The seed (model, training and evaluation environments)
     :param budget: Training environment steps
     :param eval_freq: Evaluate every this many environment steps
     :param n_eval_episodes: Episodes per evaluation (deterministic, and again stochastic)
-    :param config_path: The algorithm's zoo yml (None: the default one)
+    :param config_path: The algorithm's zoo yml (None: the default one, as
+        :func:`~sb3_reinforce.compare.experiment.read_entry`)
     """
 
     env_id: str
@@ -175,16 +171,6 @@ def code_version() -> dict[str, Any]:
     return {"sb3_reinforce": __version__, "git_commit": commit, "git_dirty": None if status is None else status != ""}
 
 
-def _make_envs(config: ZooConfig, seed: int) -> tuple[VecEnv, VecEnv]:
-    train_env = make_vec_env(config.env_id, n_envs=config.n_envs, seed=seed)
-    # The evaluation env's seed is far from the training envs' (seed .. seed + n_envs - 1)
-    eval_env = make_vec_env(config.env_id, n_envs=1, seed=seed + 10_000)
-    if config.normalize:
-        train_env = VecNormalize(train_env, **config.normalize_kwargs)
-        eval_env = VecNormalize(eval_env, training=False, norm_reward=False, **config.normalize_kwargs)
-    return train_env, eval_env
-
-
 def run(spec: RunSpec, out_dir: Path, progress: Any = None) -> dict[str, Any]:
     """
     Train and evaluate one run; write ``out_dir/per_run/<algo>_seed<seed>.csv`` (one row per evaluation,
@@ -204,19 +190,22 @@ def run(spec: RunSpec, out_dir: Path, progress: Any = None) -> dict[str, Any]:
     with csv_path.open("w", newline="") as f:
         csv.writer(f).writerow(RESULT_COLUMNS)
 
-    config = load_zoo_config(spec.algo, spec.env_id, None if spec.config_path is None else Path(spec.config_path))
-    train_env, eval_env = _make_envs(config, spec.seed)
-    model = ALGO_CLASSES[spec.algo](env=train_env, seed=spec.seed, device="cpu", verbose=0, **config.model_kwargs)
-    callback = ComparisonEvalCallback(spec, eval_env, csv_path, progress)
-    model.learn(total_timesteps=spec.budget, callback=callback)
-    train_time = callback.training_time()
-    if callback.last_eval_steps < model.num_timesteps:
-        callback._evaluate()  # the final point, at the end of the budget
+    with tempfile.TemporaryDirectory(prefix=f"{spec.name}-zoo-") as zoo_folder:
+        config = None if spec.config_path is None else Path(spec.config_path)
+        built = build_run(spec.algo, spec.env_id, spec.seed, spec.budget, Path(zoo_folder), config)
+        model, eval_env = built.model, built.eval_env
+        callback = ComparisonEvalCallback(spec, eval_env, csv_path, progress)
+        model.learn(total_timesteps=spec.budget, callback=[*built.callbacks, callback])
+        train_time = callback.training_time()
+        if callback.last_eval_steps < model.num_timesteps:
+            callback._evaluate()  # the final point, at the end of the budget
+        built.train_env.close()
+        eval_env.close()
     summary = dict(
         spec=spec.__dict__,
         code_version=version,
-        hyperparams_source=str(config.source),
-        hyperparams={key: str(value) for key, value in config.raw.items()},
+        hyperparams_source=str(built.entry.source),
+        hyperparams={key: str(value) for key, value in built.entry.hyperparams.items()},
         steps=int(model.num_timesteps),
         train_time_s=round(train_time, 3),
         steps_per_s=round(model.num_timesteps / train_time, 1),
@@ -225,6 +214,4 @@ def run(spec: RunSpec, out_dir: Path, progress: Any = None) -> dict[str, Any]:
         cpu_time_s=round(sum(psutil.Process().cpu_times()[:2]), 1),
     )
     (runs_dir / f"{spec.name}.json").write_text(json.dumps(summary, indent=2))
-    train_env.close()
-    eval_env.close()
     return summary

@@ -1,0 +1,153 @@
+"""
+Each run of the comparison is built by rl_zoo3's ``ExperimentManager`` (through
+:class:`~sb3_reinforce.zoo.exp_manager.ReinforceExperimentManager`), exactly as ``sb3-reinforce-zoo train``
+builds it from the same entry: the model, its training environments (wrappers, frame stack, ``VecNormalize``,
+``env_kwargs``, monitor), the config's callbacks and schedules. Only the evaluation is the comparison's own (a
+separate environment built by the same manager, seeded apart from the training ones).
+
+REINFORCE's hyperparameters come from this repository's ``zoo_configs/reinforce.yml`` (or ``--reinforce-config``);
+every other algorithm's from the *installed* rl_zoo3 package (``rl_zoo3/hyperparams/<algo>.yml``).
+"""
+
+import argparse
+import contextlib
+import io
+import os
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.vec_env import VecEnv
+
+__all__ = ["DEFAULT_ALGOS", "EVAL_SEED_OFFSET", "BuiltRun", "ZooEntry", "build_run", "known_algos", "read_entry"]
+
+#: The algorithms compared when ``--algos`` is not given.
+DEFAULT_ALGOS = ("reinforce", "ppo", "a2c")
+#: The evaluation environment's seed is the run's seed plus this (the training envs use seed .. seed + n_envs - 1).
+EVAL_SEED_OFFSET = 10_000
+
+
+def known_algos() -> list[str]:
+    """Every algorithm the installed rl_zoo3 knows, REINFORCE included (registered first)."""
+    from rl_zoo3.utils import ALGOS
+
+    from sb3_reinforce.zoo import register
+
+    register()
+    return sorted(ALGOS)
+
+
+@contextlib.contextmanager
+def _quiet() -> Iterator[None]:
+    # The zoo prints every hyperparameter it reads (and more): a comparison of many runs keeps its output short.
+    with contextlib.redirect_stdout(io.StringIO()):
+        yield
+
+
+def _manager(algo: str, env_id: str, seed: int, budget: int, log_folder: str, config: Path | None) -> Any:
+    from sb3_reinforce.zoo.exp_manager import ReinforceExperimentManager
+
+    known_algos()  # registers REINFORCE
+    args = argparse.Namespace(algo=algo, env=env_id, seed=seed, n_timesteps=budget, conf_file=config, source="compare")
+    return ReinforceExperimentManager(
+        args,
+        algo,
+        env_id,
+        log_folder,
+        n_timesteps=budget,
+        eval_freq=-1,  # the comparison evaluates with its own callback
+        seed=seed,
+        verbose=0,
+        device="cpu",
+        config=None if config is None else str(config),
+    )
+
+
+@dataclass
+class ZooEntry:
+    """
+    One algorithm's zoo entry for one environment, read and checked as ``sb3-reinforce-zoo train`` reads it.
+
+    :param algo: Lower-case algorithm name (rl_zoo3's ``--algo``)
+    :param env_id: The environment id
+    :param source: The yml file it was read from
+    :param n_envs: Number of training environments
+    :param n_timesteps: The entry's training budget
+    :param hyperparams: The entry as written in the file (for the record)
+    """
+
+    algo: str
+    env_id: str
+    source: Path
+    n_envs: int
+    n_timesteps: int
+    hyperparams: dict[str, Any] = field(default_factory=dict)
+
+
+def read_entry(algo: str, env_id: str, config: Path | None = None) -> ZooEntry:
+    """
+    Read and check ``algo``'s entry for ``env_id`` without building anything: a missing file or entry, a key
+    the algorithm does not take or (for REINFORCE) a bad value raises a ``ValueError`` naming it.
+
+    :param algo: An algorithm of :func:`known_algos`
+    :param env_id: The environment id
+    :param config: The yml file (default: REINFORCE's zoo config, or the installed rl_zoo3's file for the algorithm)
+    :return: The entry
+    """
+    if algo not in known_algos():
+        raise ValueError(f"Unknown algorithm {algo!r}: choose among {', '.join(known_algos())}")
+    manager = _manager(algo, env_id, 0, 0, os.devnull, config)
+    with _quiet():
+        try:
+            hyperparams, saved = manager.read_hyperparameters()
+        except FileNotFoundError as error:
+            raise ValueError(f"{algo}: no hyperparameter file ({error})") from None
+        except ValueError as error:  # rl_zoo3's own "Hyperparameters not found for ..."
+            raise ValueError(str(error).splitlines()[0]) from None
+        manager._preprocess_hyperparams(hyperparams)
+    return ZooEntry(algo, env_id, Path(manager.config), int(manager.n_envs), int(manager.n_timesteps), dict(saved))
+
+
+@dataclass
+class BuiltRun:
+    """What one run trains and evaluates: the model, its training env, the evaluation env and the zoo's callbacks."""
+
+    model: BaseAlgorithm
+    train_env: VecEnv
+    eval_env: VecEnv
+    callbacks: list[BaseCallback]
+    entry: ZooEntry
+
+
+def build_run(algo: str, env_id: str, seed: int, budget: int, log_folder: Path, config: Path | None = None) -> BuiltRun:
+    """
+    Build one run through the zoo's experiment manager, as ``sb3-reinforce-zoo train --algo ALGO --env ENV
+    --seed SEED -n BUDGET`` would (its files go to ``log_folder``), plus an evaluation environment made by the
+    same manager (same wrappers, ``VecNormalize`` in evaluation mode, the standard ``env_kwargs``), seeded
+    ``seed + EVAL_SEED_OFFSET``.
+
+    :param algo: An algorithm of :func:`known_algos`
+    :param env_id: The environment id
+    :param seed: The run's seed
+    :param budget: Training steps
+    :param log_folder: Where the zoo writes the run's own files (monitor logs, the config it used)
+    :param config: The algorithm's yml file (default: as :func:`read_entry`)
+    :return: The run, ready to ``model.learn``
+    """
+    manager = _manager(algo, env_id, seed, budget, str(log_folder), config)
+    with _quiet():
+        built = manager.setup_experiment()
+        assert built is not None, "setup_experiment() builds a model unless optimizing"
+        model, saved = built
+        manager.seed = seed + EVAL_SEED_OFFSET
+        try:
+            eval_env = manager.create_envs(1, eval_env=True)
+        finally:
+            manager.seed = seed
+    entry = ZooEntry(algo, env_id, Path(manager.config), int(manager.n_envs), int(manager.n_timesteps), dict(saved))
+    train_env = model.get_env()
+    assert train_env is not None
+    return BuiltRun(model, train_env, eval_env, list(manager.callbacks), entry)
