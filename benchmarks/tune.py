@@ -90,6 +90,14 @@ def export(study: optuna.Study, args: argparse.Namespace, base: dict[str, Any]) 
         (args.study_dir / "best_config.yml").write_text(header + yaml.safe_dump({args.env: entry}, sort_keys=True))
 
 
+def rerun_interrupted(study: optuna.Study) -> None:
+    """Mark the study's RUNNING trials (their workers were stopped) failed, and queue their parameters again."""
+    for trial in study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.RUNNING,)):
+        study._storage.set_trial_state_values(trial._trial_id, state=optuna.trial.TrialState.FAIL)
+        study.enqueue_trial(dict(trial.params), user_attrs={"rerun_of": trial.number})
+        print(f"Trial {trial.number} was interrupted: queued again")
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--env", required=True)
@@ -106,6 +114,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--fixed", type=Path, default=None, help="yml of search parameters held fixed (PartialFixedSampler)")
     parser.add_argument("--enqueue", type=Path, default=None, help="yml list of parameter sets tried first (once per study)")
     parser.add_argument("--sampler-seed", type=int, default=None)
+    parser.add_argument(
+        "--rerun-interrupted",
+        action="store_true",
+        help="first mark the study's RUNNING trials failed and queue them again (resuming a stopped study: only when "
+        "no other worker is running; a journal file has no heartbeats to tell a dead worker's trial from a live one)",
+    )
     args = parser.parse_args(argv)
     if len(args.seeds) < 2:
         parser.error("--seeds: a trial needs at least 2 seeds")
@@ -131,6 +145,8 @@ def main(argv: list[str] | None = None) -> None:
         study.set_user_attr("enqueued", True)
         for params in yaml.safe_load(args.enqueue.read_text()):
             study.enqueue_trial(params, skip_if_exists=True)
+    if args.rerun_interrupted:
+        rerun_interrupted(study)
     states = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)
     if len(study.get_trials(deepcopy=False, states=states)) >= args.max_trials:
         print(f"The study has its {args.max_trials} finished trials: nothing to do")

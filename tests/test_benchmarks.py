@@ -115,3 +115,25 @@ def test_tune_tiny_budget(tmp_path: Path) -> None:
     # run again: the study is finished, nothing more is trained
     tune.main(args)
     assert len(read_rows(study_dir / "trials.csv")) == 2
+
+
+def test_tune_reruns_interrupted_trials(tmp_path: Path) -> None:
+    import optuna
+
+    tune = load("tune")
+    study_dir = tmp_path / "study"
+    study_dir.mkdir()
+    storage = optuna.storages.JournalStorage(optuna.storages.journal.JournalFileBackend(str(study_dir / "study.log")))
+    study = optuna.create_study(study_name="s", storage=storage, direction="maximize")
+    fixed = dict(n_envs=1, learning_rate=1e-3, lr_schedule="constant", one_minus_gamma=0.01, n_episodes=1)
+    fixed.update(net_arch="tiny", activation_fn="tanh", baseline="none", ent_coef=1e-8, max_grad_norm=0.0)
+    study.enqueue_trial({**fixed, "normalize_returns": True})
+    interrupted = study.ask()  # a worker that was stopped mid-trial leaves it RUNNING
+    params = tune.suggest_reinforce_params(interrupted)
+    args = ["--env", "CartPole-v1", "--base-config", str(Path(__file__).parents[1] / "zoo_configs" / "reinforce.yml")]
+    args += ["--study-dir", str(study_dir), "--study-name", "s", "--budget", "400", "--eval-freq", "200"]
+    args += ["--eval-episodes", "1", "--score-last", "1", "--max-trials", "1", "--rerun-interrupted"]
+    tune.main(args)
+    trials = optuna.load_study(study_name="s", storage=storage).trials
+    assert [t.state.name for t in trials] == ["FAIL", "COMPLETE"]
+    assert trials[1].params == params and trials[1].user_attrs["rerun_of"] == 0
