@@ -255,6 +255,16 @@ def test_budget_options() -> None:
     assert [(s.algo, s.seed, s.budget) for s in specs] == [("ppo", 7, 20_000), ("ppo", 8, 20_000)]
 
 
+def test_any_zoo_algorithm_beside_reinforce(tmp_path: Path) -> None:
+    # TRPO (sb3-contrib) with the installed zoo's entry, through the same path as REINFORCE, PPO and A2C
+    specs, _ = parse_specs(build_parser().parse_args(["--algos", "reinforce,ppo,a2c,trpo", "--seeds", "1"]))
+    assert [s.algo for s in specs] == ["reinforce", "ppo", "a2c", "trpo"] and {s.budget for s in specs} == {100_000}
+    built = build_run("trpo", "CartPole-v1", 0, 1000, tmp_path)
+    assert type(built.model).__name__ == "TRPO" and built.model.n_envs == built.entry.n_envs
+    with pytest.raises(ValueError, match=r"choose among .*trpo"):
+        parse_specs(build_parser().parse_args(["--algos", "reinforce,nosuchalgo"]))
+
+
 def test_finished_run_with_other_settings_is_refused(tmp_path: Path) -> None:
     spec = RunSpec("CartPole-v1", "ppo", 0, 1000, 500, 2)
     (tmp_path / PER_RUN_DIR).mkdir()
