@@ -58,6 +58,25 @@ class EpisodeRolloutBuffer(BaseBuffer):
     REINFORCE re-evaluates ``log pi(a|s)`` with the current policy, so this is a one-update lag on a part of
     the batch (with ``n_envs=1`` a batch always ends exactly on an episode end and nothing is carried).
 
+    **The last batch** can be read under the names of SB3's ``RolloutBuffer``, as callbacks written for A2C/PPO
+    read them (in ``_on_rollout_end``, say): ``observations``, ``actions``, ``rewards``, ``returns`` and
+    ``episode_starts`` hold the batch that :meth:`compute_returns` made last (the previous batch while a rollout
+    is running, empty arrays before the first). Its whole episodes lie end to end, one row per transition:
+    the layout SB3's arrays have once ``get()`` has flattened them, not the ``(n_steps, n_envs, ...)`` layout
+    they have during SB3's rollouts. Shapes, with ``batch_size`` transitions:
+
+    - ``observations``: ``(batch_size, *obs_shape)``, in the observation space's dtype (float64 stored as
+      float32); a dict of such arrays, one per key, for a ``Dict`` space
+    - ``actions``: ``(batch_size, action_dim)``, float32, as sampled (before clipping to the bounds)
+    - ``rewards``: ``(batch_size,)``, float64, with ``gamma * V(s_T)`` added to the last reward of a truncated
+      episode when the algorithm bootstraps it (as SB3 adds it)
+    - ``returns``: ``(batch_size,)``, float64, the discounted reward-to-go ``G_t``
+    - ``episode_starts``: ``(batch_size,)``, float32, 1.0 on the first step of each episode
+
+    There are no ``values``, ``log_probs`` or ``advantages``: REINFORCE's rollout computes none of them
+    (``log pi(a|s)``, and ``V(s)`` with a baseline, are evaluated with gradients in ``train()``). Episodes still
+    running are not part of the batch (:meth:`size` counts them).
+
     **Memory** is proportional to the largest batch, never to the training length: the capacity doubles
     when a column is full (amortized O(1) per step, no copy of the whole buffer at each step) and is
     kept from batch to batch. An environment that never ends an episode would grow it without bound, so
@@ -128,9 +147,36 @@ class EpisodeRolloutBuffer(BaseBuffer):
         self.env_steps = np.zeros(self.n_envs, dtype=np.int64)
         self.finished_steps = np.zeros(self.n_envs, dtype=np.int64)
         self.n_finished_episodes = 0
+        # The last batch (none yet): one empty array per field, so that its attributes can be read before the first
+        self._batch = {name: np.zeros((0, *shape), dtype=dtype) for name, (shape, dtype) in self._field_specs().items()}
+        self.returns = np.zeros(0, dtype=np.float64)
         self.episode_lengths = np.zeros(0, dtype=np.int64)
         self.batch_size = 0
         super().reset()
+
+    # --- the last batch, under the names of SB3's RolloutBuffer (see the class docstring) -------
+    @property
+    def observations(self) -> Any:
+        """The last batch's observations, ``(batch_size, *obs_shape)``."""
+        return self._batch["observations"]
+
+    @property
+    def actions(self) -> np.ndarray:
+        """The last batch's actions, ``(batch_size, action_dim)``."""
+        return self._batch["actions"]
+
+    @property
+    def rewards(self) -> np.ndarray:
+        """The last batch's rewards, ``(batch_size,)`` (bootstrapped on truncation when the algorithm does it)."""
+        return self._batch["rewards"]
+
+    @property
+    def episode_starts(self) -> np.ndarray:
+        """1.0 on the first step of each episode of the last batch, else 0.0, ``(batch_size,)``."""
+        ends = self._batch["episode_ends"]
+        starts = np.ones(len(ends), dtype=np.float32)
+        starts[1:] = ends[:-1]
+        return starts
 
     @property
     def env_steps(self) -> np.ndarray:
@@ -296,3 +342,8 @@ class DictEpisodeRolloutBuffer(EpisodeRolloutBuffer):
 
     def _join_obs(self, arrays: dict[str, np.ndarray]) -> TensorDict:
         return {key: self.to_torch(arrays[f"observations/{key}"]) for key in self.obs_shape}
+
+    @property
+    def observations(self) -> dict[str, np.ndarray]:
+        """The last batch's observations, one ``(batch_size, *obs_shape[key])`` array per key."""
+        return {key: self._batch[f"observations/{key}"] for key in self.obs_shape}

@@ -12,7 +12,7 @@ from typing import Any
 import torch as th
 from gymnasium import spaces
 from stable_baselines3.common.distributions import CategoricalDistribution, DiagGaussianDistribution
-from stable_baselines3.common.policies import ActorCriticPolicy
+from stable_baselines3.common.policies import ActorCriticPolicy, BaseModel
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor, CombinedExtractor, NatureCNN
 from stable_baselines3.common.type_aliases import PyTorchObs, Schedule
 from torch import nn
@@ -45,8 +45,9 @@ class ReinforcePolicy(ActorCriticPolicy):
     :param observation_space: Observation space
     :param action_space: Action space
     :param lr_schedule: Learning rate schedule (could be constant)
-    :param net_arch: The specification of the policy and value networks. Without a value head, a list gives
-        the actor's hidden layers and ``vf`` of a dict is ignored. Default: 64-64 (none for ``NatureCNN``).
+    :param net_arch: The specification of the policy and value networks, as SB3's (SB3's old format
+        ``[dict(pi=..., vf=...)]`` is converted as SB3 converts it, with its warning). Without a value head, a
+        list gives the actor's hidden layers and ``vf`` of a dict is ignored. Default: 64-64 (none for ``NatureCNN``).
     :param value_head: Whether to build a value network ``V(s)`` (REINFORCE with baseline). Set by the
         algorithm from its ``baseline`` argument.
     :param xavier_init: Initialize all weights and biases Glorot-uniform, as the seed did, instead of
@@ -77,16 +78,22 @@ class ReinforcePolicy(ActorCriticPolicy):
         self.xavier_init = xavier_init
         self.fast_rollout = fast_rollout
         if not value_head:
-            if net_arch is None:
-                net_arch = [] if kwargs.get("features_extractor_class") == NatureCNN else [64, 64]
-            pi_arch = net_arch.get("pi", []) if isinstance(net_arch, dict) else list(net_arch)
-            net_arch = dict(pi=pi_arch, vf=[])
             # A separate critic feature extractor would never be used.
             kwargs["share_features_extractor"] = True
         if kwargs.get("optimizer_class", th.optim.Adam) is th.optim.Adam:
             optimizer_kwargs = kwargs.get("optimizer_kwargs")
             kwargs["optimizer_kwargs"] = {"foreach": True, **({"eps": 1e-5} if optimizer_kwargs is None else optimizer_kwargs)}
         super().__init__(observation_space, action_space, lr_schedule, net_arch=net_arch, **kwargs)
+
+    def _build_mlp_extractor(self) -> None:
+        if not self.value_head:
+            # The actor's layers only. SB3's __init__ has already filled in its default ``net_arch`` and converted
+            # the old ``[dict(pi=..., vf=...)]`` format (with its warning): a list is the actor's layers, and ``vf``
+            # of a dict is dropped.
+            net_arch = self.net_arch
+            pi_arch = net_arch.get("pi", []) if isinstance(net_arch, dict) else list(net_arch)
+            self.net_arch = dict(pi=pi_arch, vf=[])
+        super()._build_mlp_extractor()
 
     def _build(self, lr_schedule: Schedule) -> None:
         super()._build(lr_schedule)
@@ -114,6 +121,17 @@ class ReinforcePolicy(ActorCriticPolicy):
         if not self._has_standard_distribution() or not isinstance(self.action_dist, SUPPORTED_DISTRIBUTIONS):
             return None
         return FastSampler(self)
+
+    def extract_actor_features(self, obs: PyTorchObs) -> th.Tensor:
+        """
+        The actor's features: the observation preprocessed and passed through ``pi_features_extractor`` only, as
+        SB3's ``get_distribution`` computes them (``extract_features`` returns a ``(pi, vf)`` pair, and runs the
+        critic's extractor too, when the features extractor is not shared).
+
+        :param obs: Observation
+        :return: The actor's features
+        """
+        return BaseModel.extract_features(self, obs, self.pi_features_extractor)
 
     def _has_standard_distribution(self) -> bool:
         """Whether the fast paths may be used: on, no gSDE, and the distribution built as SB3 builds it."""

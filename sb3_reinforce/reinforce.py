@@ -110,7 +110,9 @@ class REINFORCE(OnPolicyAlgorithm):
     :param max_rollout_steps: Most transitions the rollout buffer may hold (all environments together).
         An environment that has not ended enough episodes by then raises ``RolloutLimitError`` instead of
         exhausting memory: give it a time limit, or raise this cap (memory is about this many observations).
-    :param rollout_buffer_class: Rollout buffer class to use. If ``None``, it will be automatically selected.
+    :param rollout_buffer_class: Rollout buffer class to use, an :class:`~sb3_reinforce.buffers.EpisodeRolloutBuffer`
+        (or a subclass; SB3's fixed-length ``RolloutBuffer`` cannot hold whole episodes). If ``None``, it will be
+        automatically selected.
     :param rollout_buffer_kwargs: Keyword arguments to pass to the rollout buffer on creation.
     :param stats_window_size: Window size for the rollout logging, specifying the number of episodes to average
         the reported success rate, mean episode length, and mean reward over
@@ -228,6 +230,11 @@ class REINFORCE(OnPolicyAlgorithm):
             is_dict = isinstance(self.observation_space, spaces.Dict)
             self.rollout_buffer_class = DictEpisodeRolloutBuffer if is_dict else EpisodeRolloutBuffer  # type: ignore[assignment]
         buffer_class: type[EpisodeRolloutBuffer] = self.rollout_buffer_class  # type: ignore[assignment]
+        if not (isinstance(buffer_class, type) and issubclass(buffer_class, EpisodeRolloutBuffer)):
+            raise TypeError(
+                f"rollout_buffer_class must be an EpisodeRolloutBuffer (or a subclass), not {buffer_class!r}: REINFORCE "
+                "learns from whole episodes, which SB3's fixed-length RolloutBuffer cannot hold"
+            )
         buffer_kwargs = dict(self.rollout_buffer_kwargs)
         self.rollout_buffer = buffer_class(
             buffer_kwargs.pop("buffer_size", 256),

@@ -165,8 +165,7 @@ class FastSampler:
             return x
         policy = self.policy
         with th.inference_mode():
-            features = policy.extract_features(obs_as_tensor(obs, policy.device), policy.pi_features_extractor)
-            assert isinstance(features, th.Tensor)
+            features = policy.extract_actor_features(obs_as_tensor(obs, policy.device))
             return policy.action_net(policy.mlp_extractor.forward_actor(features)).cpu().numpy()
 
     def sample(self, params: np.ndarray) -> np.ndarray:

@@ -144,3 +144,77 @@ def test_dict_buffer_roundtrip() -> None:
     assert batch.observations["img"].shape == (8, 4, 4, 1)
     assert [int(x) for x in batch.observations["vec"][:, 0]] == [0, 1, 2, 0, 1, 2, 3, 4]
     assert batch.returns.shape == (8,)
+
+
+class ReadBufferAsA2CCallbacksDo(BaseCallback):
+    """Reads the rollout buffer under SB3's names at the end of each rollout, as callbacks written for A2C/PPO do."""
+
+    NAMES = ("observations", "actions", "rewards", "returns", "episode_starts")
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.batches: list[dict[str, np.ndarray]] = []
+        self.episode_lengths: list[np.ndarray] = []
+
+    def _on_rollout_end(self) -> None:
+        buffer = self.model.rollout_buffer
+        self.batches.append({name: np.array(getattr(buffer, name)) for name in self.NAMES})
+        self.episode_lengths.append(buffer.episode_lengths.copy())
+
+    def _on_step(self) -> bool:
+        return True
+
+
+@pytest.mark.parametrize("n_envs", [1, 3])
+def test_last_batch_under_sb3_names(n_envs: int) -> None:
+    """``observations``, ``actions``, ``rewards``, ``returns``, ``episode_starts``: the last batch, one row a step."""
+    gamma = 0.9
+    env = DummyVecEnv([lambda i=i: CountingEnv(i, (4, 2, 6)) for i in range(n_envs)])
+    model = REINFORCE("MlpPolicy", env, gamma=gamma, n_episodes=2, seed=0)
+    for name in ReadBufferAsA2CCallbacksDo.NAMES:  # readable before the first batch: empty
+        assert len(getattr(model.rollout_buffer, name)) == 0, name
+    reader = ReadBufferAsA2CCallbacksDo()
+    model.learn(100, callback=reader)
+    assert reader.batches, "no batch was trained"
+    for batch, lengths in zip(reader.batches, reader.episode_lengths, strict=True):
+        size = int(lengths.sum())
+        assert batch["observations"].shape == (size, 3)
+        assert batch["actions"].shape == (size, 1)  # (batch_size, action_dim), Discrete: one column
+        assert batch["rewards"].shape == batch["returns"].shape == batch["episode_starts"].shape == (size,)
+        starts = np.flatnonzero(batch["episode_starts"])
+        np.testing.assert_array_equal(starts, np.cumsum(lengths) - lengths)
+        for start, length in zip(starts, lengths, strict=True):
+            steps = batch["observations"][start : start + length, 2]
+            np.testing.assert_array_equal(steps, np.arange(length))
+            np.testing.assert_array_equal(batch["rewards"][start : start + length], steps + 1)  # reward at step t: t + 1
+            expected = [sum(gamma ** (k - t) * (k + 1) for k in range(t, length)) for t in range(length)]
+            np.testing.assert_allclose(batch["returns"][start : start + length], expected, rtol=1e-6)
+    # The attributes are the batch that train() used: what get() yields
+    last = reader.batches[-1]
+    samples = next(model.rollout_buffer.get())
+    np.testing.assert_array_equal(samples.observations.numpy(), last["observations"])
+    np.testing.assert_array_equal(samples.actions.numpy(), last["actions"])
+    np.testing.assert_allclose(samples.returns.numpy(), last["returns"], rtol=1e-6)
+
+
+def test_last_batch_under_sb3_names_dict() -> None:
+    obs_space = spaces.Dict({"img": spaces.Box(0, 255, (4, 4, 1), dtype=np.uint8), "vec": spaces.Box(-1, 1, (2,))})
+    buffer = DictEpisodeRolloutBuffer(2, obs_space, spaces.Box(-1, 1, (2,)), device="cpu", n_envs=2)
+    assert buffer.observations["img"].shape == (0, 4, 4, 1) and buffer.actions.shape == (0, 2)
+    for t in range(5):
+        obs = {"img": np.full((2, 4, 4, 1), t, dtype=np.uint8), "vec": np.full((2, 2), t, dtype=np.float32)}
+        buffer.add(obs, np.full((2, 2), t), np.ones(2), np.array([t == 2, t == 4]))
+    buffer.compute_returns()
+    assert buffer.observations["img"].shape == (8, 4, 4, 1) and buffer.observations["img"].dtype == np.uint8
+    assert list(buffer.observations["vec"][:, 0]) == [0, 1, 2, 0, 1, 2, 3, 4]
+    assert buffer.actions.shape == (8, 2) and list(buffer.actions[:, 0]) == [0, 1, 2, 0, 1, 2, 3, 4]
+    assert list(buffer.episode_starts) == [1, 0, 0, 1, 0, 0, 0, 0]
+    assert buffer.rewards.shape == buffer.returns.shape == (8,)
+
+
+def test_sb3_rollout_buffer_is_refused() -> None:
+    # SB3's fixed-length RolloutBuffer cannot hold whole episodes: a clear error, not one from deep inside
+    from stable_baselines3.common.buffers import RolloutBuffer
+
+    with pytest.raises(TypeError, match=r"rollout_buffer_class must be an EpisodeRolloutBuffer"):
+        REINFORCE("MlpPolicy", "CartPole-v1", rollout_buffer_class=RolloutBuffer)  # type: ignore[arg-type]

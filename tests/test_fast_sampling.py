@@ -7,10 +7,12 @@ of samples with fixed parameters and fixed seeds (so the tests are deterministic
 """
 
 import copy
+import warnings
 
 import gymnasium as gym
 import numpy as np
 import pytest
+import scipy.special
 import torch as th
 from gymnasium import spaces
 from scipy import stats
@@ -294,3 +296,38 @@ def test_adam_defaults_to_foreach_and_keeps_the_users_choice() -> None:
     assert mine.optimizer.defaults["foreach"] is False and mine.optimizer.defaults["betas"] == (0.8, 0.9)
     sgd = ReinforcePolicy(OBS_SPACE, box, lambda _: 1e-3, optimizer_class=th.optim.SGD)
     assert "foreach" not in sgd.optimizer_kwargs
+
+
+@pytest.mark.parametrize(
+    "policy, env_id, policy_kwargs",
+    [
+        ("CnnPolicy", "image", {}),
+        ("MlpPolicy", "CartPole-v1", dict(activation_fn=th.nn.ELU)),  # no NumPy actor: the torch path
+        ("MultiInputPolicy", "dict", {}),
+    ],
+)
+def test_unshared_features_extractor(policy: str, env_id: str, policy_kwargs: dict) -> None:
+    """
+    As SB3's test_cnn.py with ``share_features_extractor=False``: the sampler's torch path reads the actor's own
+    features extractor (``extract_features`` would return the actor's and the critic's features as a pair).
+    """
+    from stable_baselines3.common.envs import FakeImageEnv, SimpleMultiObsEnv
+
+    env = {
+        "image": lambda: FakeImageEnv(screen_height=40, screen_width=40, n_channels=1, discrete=True),
+        "dict": lambda: SimpleMultiObsEnv(random_start=True),
+    }.get(env_id, lambda: gym.make(env_id))()
+    kwargs = dict(share_features_extractor=False, **policy_kwargs)
+    model = REINFORCE(policy, env, baseline="value", seed=0, policy_kwargs=kwargs)
+    assert model.policy.pi_features_extractor is not model.policy.vf_features_extractor
+    sampler = model.policy.fast_sampler()
+    assert sampler is not None and sampler.numpy_layers is None
+    obs = model.get_env().reset()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # not SB3's "Provided features_extractor will be ignored"
+        params = sampler.distribution_parameters(obs)
+    with th.no_grad():
+        probs = model.policy.get_distribution(model.policy.obs_to_tensor(obs)[0]).distribution.probs.numpy()
+    np.testing.assert_allclose(scipy.special.softmax(params, axis=1), probs, rtol=1e-5, atol=1e-7)
+    model.learn(64)
+    assert model.num_timesteps >= 64
