@@ -36,9 +36,11 @@ from sb3_reinforce.zoo.hyperparams_opt import suggest_n_envs
 from sb3_reinforce.zoo.storage import (
     DATABASE_ERRORS,
     FaultTolerance,
+    caused_by_database,
     check_direction,
     is_database_url,
     open_database_storage,
+    retry_failed_trials,
 )
 
 __all__ = ["ALGO_NAME", "ReinforceExperimentManager", "ZooUsageError"]
@@ -48,6 +50,10 @@ ALGO_NAME = "reinforce"
 
 # Keys of a zoo config that the zoo itself consumes (they never reach the algorithm's constructor).
 _ZOO_KEYS = {"env", "tensorboard_log", "seed", "verbose", "device"}
+
+
+class SurplusTrial(RuntimeError):
+    """A trial started when the study already had its ``--max-total-trials`` (two workers started at once)."""
 
 
 class ZooUsageError(ValueError):
@@ -165,7 +171,15 @@ class ReinforceExperimentManager(ExperimentManager):
         :param trial: The Optuna trial
         :return: The last mean evaluation reward
         """
-        trial.set_user_attr("worker", f"{socket.gethostname()}:{os.getpid()}")
+        trial.set_user_attr("worker", self._worker_name())
+        if self.max_total_trials is not None and is_database_url(self.storage):
+            # Trial numbers are given out by the database, in order: the trials numbered before this one that
+            # finished or are running already make the total when two workers started one at the same moment.
+            counted = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED, optuna.trial.TrialState.RUNNING)
+            earlier = [t for t in trial.study.get_trials(deepcopy=False, states=counted) if t.number < trial.number]
+            if len(earlier) >= self.max_total_trials:
+                trial.set_user_attr("surplus", True)
+                raise SurplusTrial(f"Trial {trial.number}: the study already has its {self.max_total_trials} trials")
         if self.algo != ALGO_NAME:
             return super().objective(trial)
         config_n_envs = self.n_envs
@@ -221,9 +235,13 @@ class ReinforceExperimentManager(ExperimentManager):
         finished_states = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)
         done_here = 0
         lost_since: float | None = None
+        retry_mine = False
         while True:
             try:
                 optuna.storages.fail_stale_trials(study)  # dead workers' trials: FAIL, and a retry is enqueued
+                if retry_mine:
+                    retry_failed_trials(study, self._worker_name())
+                    retry_mine = False
                 trials = study.get_trials(deepcopy=False)
                 lost_since = None
             except DATABASE_ERRORS as error:
@@ -242,11 +260,21 @@ class ReinforceExperimentManager(ExperimentManager):
                     time.sleep(min(self.fault_tolerance.heartbeat_interval, 5))  # the last trials run elsewhere
                     continue
             try:
-                study.optimize(self.objective, n_trials=1, gc_after_trial=True)
+                # A trial started beyond the total by a race between workers is recorded FAIL as "surplus" and not run
+                study.optimize(self.objective, n_trials=1, gc_after_trial=True, catch=(SurplusTrial,))
                 done_here += 1
-            except DATABASE_ERRORS as error:
-                # The trial is left RUNNING without heartbeats: it is failed and retried after the grace period.
+            except Exception as error:
+                if not caused_by_database(error):
+                    raise
+                # The trial is left RUNNING without heartbeats (failed and retried after the grace period), or
+                # Optuna marked it FAIL on the way out: this worker queues its retry once the database is back.
+                retry_mine = True
                 lost_since = self._wait_for_database(error, lost_since)
+
+    @staticmethod
+    def _worker_name() -> str:
+        """This worker, as recorded in each trial's ``worker`` attribute."""
+        return f"{socket.gethostname()}:{os.getpid()}"
 
     def _wait_for_database(self, error: BaseException, lost_since: float | None) -> float:
         now = time.monotonic()

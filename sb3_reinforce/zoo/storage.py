@@ -34,11 +34,13 @@ __all__ = [
     "DATABASE_ERRORS",
     "FaultTolerance",
     "StorageError",
+    "caused_by_database",
     "check_direction",
     "is_database_url",
     "open_database_storage",
     "redact",
     "retried_trial_number",
+    "retry_failed_trials",
 ]
 
 #: Errors of a database that went away (server restart, network): a worker waits and reconnects. Optuna reports
@@ -114,6 +116,43 @@ def retried_trial_number(trial: optuna.trial.FrozenTrial) -> int | None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
         return _RetryCallback.retried_trial_number(trial)
+
+
+def caused_by_database(error: BaseException) -> bool:
+    """
+    Whether ``error`` comes from a database that went away: one of ``DATABASE_ERRORS``, or any error raised
+    while handling one (Optuna's own error handling can fail in turn when the database is gone).
+    """
+    seen: set[int] = set()
+    current: BaseException | None = error
+    while current is not None and id(current) not in seen:
+        if isinstance(current, DATABASE_ERRORS):
+            return True
+        seen.add(id(current))
+        current = current.__cause__ or current.__context__
+    return False
+
+
+def retry_failed_trials(study: optuna.Study, worker: str) -> None:
+    """
+    Queue a retry of every FAIL trial of ``worker`` that has none yet, as the storage does for stale trials (the
+    same callback, so ``max_retry`` holds). For a trial that Optuna marked FAIL because the database went away.
+
+    :param study: The study
+    :param worker: The ``worker`` user attribute of the trials to retry
+    """
+    storage: Any = study._storage
+    getter = getattr(storage, "get_heartbeat_stale_trial_callback", None) or storage.get_failed_trial_callback
+    callback = getter()
+    if callback is None:
+        return
+    trials = study.get_trials(deepcopy=False)
+    retried = {retried_trial_number(trial) for trial in trials}
+    for trial in trials:
+        failed = trial.state == optuna.trial.TrialState.FAIL and not trial.user_attrs.get("surplus")
+        if failed and trial.user_attrs.get("worker") == worker:
+            if trial.number not in retried:
+                callback(study, trial)
 
 
 def _first_line(error: BaseException) -> str:
