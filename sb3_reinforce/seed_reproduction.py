@@ -19,6 +19,7 @@ import argparse
 import csv
 import multiprocessing as mp
 import os
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -34,7 +35,7 @@ from stable_baselines3.common.monitor import Monitor
 from sb3_reinforce.presets import seed_hyperparams
 from sb3_reinforce.reinforce import REINFORCE
 
-__all__ = ["EPISODE_COLUMNS", "RewardFloor", "main", "run_seed"]
+__all__ = ["EPISODE_COLUMNS", "RewardFloor", "build_parser", "main", "run_seed"]
 
 EPISODE_COLUMNS = ["env", "seed", "episode", "steps", "wall_time_s", "episode_return", "episode_length", "peak_rss_mb"]
 
@@ -142,28 +143,61 @@ def _finished(path: Path, n_episodes: int) -> bool:
     return len(episodes) > 0 and int(episodes.max()) >= n_episodes
 
 
+def build_parser() -> argparse.ArgumentParser:
+    """The ``seed`` command's argument parser."""
+    parser = argparse.ArgumentParser(
+        prog="sb3-reinforce seed",
+        description="Train the seed's agent for a number of episodes (x axis: episodes).",
+    )
+    parser.add_argument("--env", default="LunarLander-v3", help="Gymnasium env id (default: %(default)s)")
+    parser.add_argument("--episodes", type=int, default=5000, help="training episodes per seed, >= 1 (default: %(default)s)")
+    parser.add_argument("--seeds", type=int, default=3, help="number of seeds: 0, 1, ..., seeds-1 (default: %(default)s)")
+    parser.add_argument(
+        "--reward-floor",
+        type=float,
+        default=None,
+        help="end an episode when its summed reward falls below this, as the seed's -250 cut on LunarLander "
+        "(default: no floor)",
+    )
+    parser.add_argument(
+        "--workers", type=int, default=os.cpu_count() or 1, help="parallel seeds, >= 1 (default: the CPU cores, %(default)s)"
+    )
+    parser.add_argument("--out", type=Path, required=True, help="output folder (required)")
+    return parser
+
+
 def main(argv: list[str] | None = None) -> None:
     """Command line entry point (see the module docstring)."""
-    parser = argparse.ArgumentParser(description="Train the seed's agent for a number of episodes (x axis: episodes).")
-    parser.add_argument("--env", default="LunarLander-v3")
-    parser.add_argument("--episodes", type=int, default=5000)
-    parser.add_argument("--seeds", type=int, default=3, help="number of seeds: 0, 1, ..., seeds-1")
-    parser.add_argument("--reward-floor", type=float, default=None, help="the seed's -250 cut on LunarLander")
-    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
-    parser.add_argument("--out", type=Path, required=True)
+    parser = build_parser()
     args = parser.parse_args(argv)
     if args.seeds < 1 or args.episodes < 1:
         parser.error("--seeds and --episodes must be >= 1")
-    gym.spec(args.env)  # unknown env: error before anything runs
+    if args.workers < 1:
+        parser.error(f"--workers must be >= 1, got {args.workers}")
+    try:
+        gym.spec(args.env)
+    except gym.error.Error as error:
+        parser.error(f"Unknown environment {args.env!r}: {error}")
     args.out.mkdir(parents=True, exist_ok=True)
     todo = [s for s in range(args.seeds) if not _finished(args.out / f"episodes_seed{s}.csv", args.episodes)]
     jobs = [(args.env, s, args.episodes, args.out, args.reward_floor) for s in todo]
-    from sb3_reinforce.compare.cli import sigterm_as_keyboard_interrupt
+    from sb3_reinforce.compare.cli import ignore_sigint, sigterm_as_keyboard_interrupt
     from sb3_reinforce.compare.render import render_seed
 
     # The pool is terminated on the way out of the block (Ctrl-C or SIGTERM): no worker outlives this process.
-    with sigterm_as_keyboard_interrupt(), mp.get_context("spawn").Pool(max(1, min(args.workers, len(jobs) or 1))) as pool:
-        pool.starmap(run_seed, jobs)
+    # The workers ignore Ctrl-C (it reaches the whole process group): only this process handles it.
+    try:
+        with (
+            sigterm_as_keyboard_interrupt(),
+            mp.get_context("spawn").Pool(max(1, min(args.workers, len(jobs))), initializer=ignore_sigint) as pool,
+        ):
+            pool.starmap(run_seed, jobs)
+    except KeyboardInterrupt:
+        print(
+            f"Interrupted: the finished episodes are kept in {args.out}; run the same command to finish "
+            "(a seed that was not finished starts over)."
+        )
+        sys.exit(130)
 
     print(render_seed(args.out))
     print(f"{len(todo)} seed(s) trained, {args.seeds - len(todo)} already done: {args.out}")

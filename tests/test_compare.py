@@ -1,22 +1,29 @@
 """The comparison command, its statistics and its bad-input errors."""
 
+import argparse
 import json
 import os
+import re
+from collections.abc import Callable
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 import pandas as pd
 import pytest
+from matplotlib.figure import Figure
 
 import sb3_reinforce
+from sb3_reinforce.cli import main as cli_main
 from sb3_reinforce.compare import runner
 from sb3_reinforce.compare.cli import _check_resumable, build_parser, main, parse_specs, write_outputs
 from sb3_reinforce.compare.experiment import EVAL_SEED_OFFSET, build_run, known_algos, read_entry
+from sb3_reinforce.compare.render import build_parser as build_report_parser
 from sb3_reinforce.compare.render import update_readme
-from sb3_reinforce.compare.report import PER_RUN_DIR
+from sb3_reinforce.compare.report import BAND_LABEL, PER_RUN_DIR, plot_learning_curves, plot_seed_curves, seed_table
 from sb3_reinforce.compare.runner import RESULT_COLUMNS, RunSpec, code_version
 from sb3_reinforce.seed_reproduction import EPISODE_COLUMNS, RewardFloor
+from sb3_reinforce.seed_reproduction import build_parser as build_seed_parser
 from sb3_reinforce.seed_reproduction import main as seed_main
 from sb3_reinforce.stats import bootstrap_ci, first_crossing, iqm, quantile_with_inf, rolling_mean
 from sb3_reinforce.version import __version__
@@ -223,6 +230,9 @@ def test_tiny_compare_with_env_kwargs(tmp_path: Path) -> None:
         (["--env", "NoSuchEnv-v0"], "Unknown environment 'NoSuchEnv-v0'"),
         (["--algos", "reinforce,nosuchalgo"], "Unknown algorithm"),
         (["--seeds", "0"], "--seeds must be >= 1"),
+        (["--first-seed", "-1"], "--first-seed must be from 0 to 2,147,483,645"),
+        (["--seeds", "2", "--first-seed", str(2**31 - 1)], "--first-seed must be from 0 to 2,147,483,646"),
+        (["--workers", "0"], "--workers must be >= 1, got 0"),
         (["--eval-freq", "0"], "--eval-freq must be >= 1"),
         (["--threshold", "high"], "--threshold must be a number"),
         (["--budget", "lots"], "--budget must be"),
@@ -239,7 +249,8 @@ def test_bad_input_fails_before_training(
     with pytest.raises(SystemExit) as exc:
         main([*args, "--out", str(out), "--no-progress"])
     assert exc.value.code == 2
-    assert message in capsys.readouterr().err
+    usage, error = capsys.readouterr().err.split("sb3-reinforce compare: error: ")
+    assert usage.startswith("usage: ") and message in error and error.count("\n") == 1  # one line, no traceback
     assert not out.exists()  # nothing was started
 
 
@@ -328,14 +339,125 @@ def test_code_version_without_git(monkeypatch: pytest.MonkeyPatch) -> None:
     assert code_version() == {"sb3_reinforce": __version__, "git_commit": None, "git_dirty": None}
 
 
-def test_seed_reproduction_tiny_run(tmp_path: Path) -> None:
+def test_seed_reproduction_tiny_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     seed_main(["--env", "CartPole-v1", "--episodes", "4", "--seeds", "1", "--workers", "1", "--out", str(tmp_path)])
+    # Fewer episodes than the 100-episode window: no window mean, said so (not -inf)
+    printed = capsys.readouterr().out
+    assert "inf" not in printed and printed.count("n/a (fewer than 100 episodes)") == 2
+    assert "| not reached | not reached |" in printed
+    summary = pd.read_csv(tmp_path / "summary.csv")
+    assert summary[["best 100-episode mean", "final 100-episode mean"]].isna().all().all()
     episodes = pd.read_csv(tmp_path / "episodes.csv")
     assert list(episodes.columns) == EPISODE_COLUMNS
     assert list(episodes["episode"]) == [1, 2, 3, 4]
     assert (episodes["steps"].diff().dropna() == episodes["episode_length"].iloc[1:].to_numpy()).all()
     assert (tmp_path / "learning_curve.png").read_bytes()[:8] == PNG_MAGIC
     assert "| 0 | 4 |" in (tmp_path / "summary.md").read_text()
+
+
+def test_seed_table_window_means() -> None:
+    returns = np.arange(1.0, 151.0)  # episode i returns i
+    episodes = pd.DataFrame(dict(seed=0, episode=np.arange(1, 151), steps=np.arange(1, 151) * 10, episode_return=returns))
+    episodes["wall_time_s"] = 1.0
+    row = seed_table(episodes, threshold=100.0).iloc[0]
+    assert row["final 100-episode mean"] == np.mean(returns[50:]) == 100.5
+    assert row["best 100-episode mean"] == 100.5
+    # the first full window ending at or above 100: episodes 51..150
+    assert row["episodes to a 100-episode mean of 100"] == 150 and row["steps to a 100-episode mean of 100"] == 1500
+    shown = seed_table(episodes[episodes["episode"] <= 99], threshold=100.0)
+    assert shown[["best 100-episode mean", "final 100-episode mean"]].isna().all().all()
+
+
+def _legend_texts(fig: Figure) -> list[str]:
+    legend = fig.axes[0].get_legend()
+    assert legend is not None
+    return [text.get_text() for text in legend.get_texts()]
+
+
+def test_learning_curve_plots_name_their_band_and_separate_thousands(tmp_path: Path) -> None:
+    rows = [
+        dict(algo=algo, seed=seed, eval_index=i, steps=10_000 * i, mean_return=float(i + seed))
+        for algo, seeds in (("reinforce", (0, 1)), ("ppo", (0,)))
+        for seed in seeds
+        for i in range(5)
+    ]
+    fig = plot_learning_curves(pd.DataFrame(rows), 475.0, tmp_path / "c.png", "CartPole-v1")
+    assert (tmp_path / "c.png").read_bytes()[:8] == PNG_MAGIC
+    assert _legend_texts(fig) == ["REINFORCE: mean over 2 seeds", "PPO: 1 seed (no band)", "solved (475)", BAND_LABEL]
+    assert BAND_LABEL == "band: 95% bootstrap CI of the mean over seeds"
+    ax = fig.axes[0]
+    assert ax.xaxis.get_major_formatter()(20_000, 0) == "20,000"
+    assert "20,000" in [label.get_text() for label in ax.get_xticklabels()]  # as drawn in the PNG
+    assert ax.xaxis.get_offset_text().get_text() == ""  # no "1e4" beside the axis
+
+    episodes = pd.DataFrame(dict(seed=np.repeat([0, 1, 2], 3000), episode=np.tile(np.arange(1, 3001), 3), episode_return=1.0))
+    fig = plot_seed_curves(episodes, 200.0, tmp_path / "s.png", "LunarLander-v3")
+    assert _legend_texts(fig) == ["seed's agent: mean over 3 seeds", "solved (200)", BAND_LABEL]
+    assert "2,000" in [label.get_text() for label in fig.axes[0].get_xticklabels()]
+    assert fig.axes[0].xaxis.get_offset_text().get_text() == ""
+
+
+@pytest.mark.parametrize(
+    "command, parser",
+    [("compare", build_parser), ("seed", build_seed_parser), ("report", build_report_parser)],
+)
+def test_help_names_the_command_and_every_default(
+    command: str, parser: Callable[[], argparse.ArgumentParser], capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exc:
+        cli_main([command, "--help"])
+    assert exc.value.code == 0
+    text = capsys.readouterr().out
+    assert text.startswith(f"usage: sb3-reinforce {command} ")
+    assert "``" not in text and ":mod:" not in text  # plain text, not the docstrings' reST
+    options = text[text.index("options:") :]
+    # One block per option: its line and the wrapped lines of its help
+    blocks = {}
+    for block in re.split(r"\n(?=  -)", options)[1:]:
+        blocks[block.split()[0].rstrip(",")] = " ".join(block.split())
+    for action in parser()._actions:
+        if not action.option_strings or action.nargs == 0:  # positional, --help, flags
+            continue
+        help_text = blocks[action.option_strings[0]]
+        if action.required:
+            assert "(required)" in help_text, help_text
+        else:
+            assert "(default: " in help_text, help_text
+            if action.default is not None:
+                assert f"{action.default})" in help_text or f"{action.default}," in help_text, help_text
+
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_stopping_seed_stops_its_workers(tmp_path: Path, sig: str) -> None:
+    # As compare: the workers do not outlive the command, which says so in one line and exits 130.
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    import psutil
+
+    cmd = [sys.executable, "-m", "sb3_reinforce.cli", "seed", "--env", "CartPole-v1", "--episodes", "1000000"]
+    cmd += ["--seeds", "1", "--workers", "1", "--out", str(tmp_path / "out")]
+    proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    parent = psutil.Process(proc.pid)
+    deadline = time.monotonic() + 120
+    episodes = tmp_path / "out" / "episodes_seed0.csv"
+    # Wait until the seed is training: its file has a finished episode
+    while not (episodes.exists() and len(episodes.read_text().splitlines()) > 1):
+        assert proc.poll() is None and time.monotonic() < deadline, proc.stdout.read() if proc.stdout else ""
+        time.sleep(0.5)
+    children = parent.children(recursive=True)
+    assert children
+    if sig == "SIGINT":
+        os.killpg(proc.pid, signal.SIGINT)
+    else:
+        proc.send_signal(signal.SIGTERM)
+    output, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 130
+    assert output.startswith("Interrupted: ") and output.count("\n") == 1, output
+    _, alive = psutil.wait_procs(children, timeout=30)
+    assert not alive, f"workers left running: {alive}"
 
 
 def test_reward_floor_cuts_the_episode() -> None:

@@ -136,6 +136,31 @@ def test_train_enjoy_benchmark_record_video(tmp_path: Path, monkeypatch: pytest.
     assert list((tmp_path / "videos").glob("*reinforce-CartPole-v1*.mp4"))
 
 
+def test_benchmark_table_stays_in_the_benchmark_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Without --test-mode, rl_zoo3's benchmark also copies its table to ./benchmark.md (the zoo clone's own
+    # README table): here the table is written to --benchmark-dir only. A trained agent whose evaluation is
+    # already logged (the benchmark then skips `enjoy`): the saved args and config, and the evaluation's monitor file.
+    monkeypatch.chdir(tmp_path)
+    saved = tmp_path / "logs" / "reinforce" / "CartPole-v1_1" / "CartPole-v1"
+    saved.mkdir(parents=True)
+    (saved / "args.yml").write_text(yaml.dump({"env": "CartPole-v1", "algo": "reinforce"}))
+    (saved / "config.yml").write_text(yaml.dump({"n_timesteps": 100_000, "policy": "MlpPolicy"}))
+    evaluation = tmp_path / "bench" / "reinforce-CartPole-v1"
+    evaluation.mkdir(parents=True)
+    monitor = '#{"t_start": 0.0, "env_id": "CartPole-v1"}\nr,l,t\n500.0,500,1.0\n480.0,480,2.0\n'
+    (evaluation / "0.monitor.csv").write_text(monitor)
+    assert main(["benchmark", "--log-dir", "logs", "--benchmark-dir", "bench", "--no-hub", "--num-threads", "1"]) == 0
+    assert not (tmp_path / "benchmark.md").exists()
+    assert "|reinforce|CartPole-v1|490|" in (tmp_path / "bench" / "benchmark.md").read_text().replace(" ", "")
+    printed = capsys.readouterr().out
+    assert f"Results written to: {os.path.join('bench', 'benchmark.md')}" in printed and "copied" not in printed
+    # shutil.copy is rl_zoo3's own again afterwards
+    shutil.copy(tmp_path / "bench" / "benchmark.md", "benchmark.md")
+    assert (tmp_path / "benchmark.md").exists()
+
+
 @pytest.mark.parametrize(
     "algo, algo_class, env_id", [("a2c", A2C, "CartPole-v1"), ("ppo", PPO, "CartPole-v1"), ("td3", TD3, "Pendulum-v1")]
 )

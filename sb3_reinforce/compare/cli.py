@@ -34,10 +34,13 @@ from sb3_reinforce.compare.report import PER_RUN_DIR, load_summaries, plot_learn
 from sb3_reinforce.compare.runner import RunSpec, run
 from sb3_reinforce.stats import SOLVE_THRESHOLDS
 
-__all__ = ["build_parser", "main", "parse_specs"]
+__all__ = ["build_parser", "ignore_sigint", "main", "parse_specs", "sigterm_as_keyboard_interrupt", "write_outputs"]
 
 #: Evaluations per run when --eval-freq is not given.
 DEFAULT_EVALS_PER_RUN = 20
+#: The largest seed a run may have: NumPy seeds must be < 2**32, and a run also seeds its evaluation environment
+#: ``seed + EVAL_SEED_OFFSET`` and its training environments ``seed .. seed + n_envs - 1``.
+MAX_SEED = 2**31 - 1
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -46,28 +49,45 @@ def build_parser() -> argparse.ArgumentParser:
         prog="sb3-reinforce compare",
         description="Train REINFORCE, PPO and A2C on the same env with the same seeds and evaluation protocol.",
     )
-    parser.add_argument("--env", default="CartPole-v1", help="Gymnasium env id (default: CartPole-v1)")
+    parser.add_argument("--env", default="CartPole-v1", help="Gymnasium env id (default: %(default)s)")
     parser.add_argument(
         "--algos",
         default=",".join(DEFAULT_ALGOS),
-        help=f"comma-separated rl_zoo3 algorithms, REINFORCE included (default: {','.join(DEFAULT_ALGOS)}; also trpo, ...)",
+        help="comma-separated rl_zoo3 algorithms, REINFORCE included, e.g. also trpo (default: %(default)s)",
     )
-    parser.add_argument("--seeds", type=int, default=3, help="number of seeds (default: 3)")
-    parser.add_argument("--first-seed", type=int, default=0, help="seeds are first-seed, first-seed+1, ... (default: 0)")
+    parser.add_argument("--seeds", type=int, default=3, help="number of seeds, >= 1 (default: %(default)s)")
+    parser.add_argument(
+        "--first-seed",
+        type=int,
+        default=0,
+        help=f"seeds are first-seed, first-seed+1, ..., from 0 to {MAX_SEED:,} (default: %(default)s)",
+    )
     parser.add_argument(
         "--budget",
         default="ppo",
-        help="training steps of every run: 'ppo' (PPO's zoo budget for the env, for every algorithm: the default), "
-        "'zoo' (each algorithm its own zoo budget), or a number of steps",
+        help="training steps of every run: 'ppo' (PPO's zoo budget for the env, for every algorithm), "
+        "'zoo' (each algorithm its own zoo budget), or a number of steps (default: %(default)s)",
     )
-    parser.add_argument("--eval-freq", type=int, default=None, help="evaluate every N env steps (default: budget / 20)")
     parser.add_argument(
-        "--eval-episodes", type=int, default=5, help="episodes per evaluation, deterministic and again stochastic (default: 5)"
+        "--eval-freq", type=int, default=None, help=f"evaluate every N env steps (default: budget / {DEFAULT_EVALS_PER_RUN})"
+    )
+    parser.add_argument(
+        "--eval-episodes",
+        type=int,
+        default=5,
+        help="episodes per evaluation, deterministic and again stochastic (default: %(default)s)",
     )
     parser.add_argument("--threshold", default=None, help="solve threshold (default: the env's known one, if any)")
-    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="parallel runs (default: CPU cores)")
+    parser.add_argument(
+        "--workers", type=int, default=os.cpu_count() or 1, help="parallel runs, >= 1 (default: the CPU cores, %(default)s)"
+    )
     parser.add_argument("--out", type=Path, default=None, help="output folder (default: runs/compare/<env>)")
-    parser.add_argument("--reinforce-config", type=Path, default=None, help="REINFORCE's zoo yml (default: zoo_configs/)")
+    parser.add_argument(
+        "--reinforce-config",
+        type=Path,
+        default=None,
+        help="REINFORCE's zoo yml (default: the package's zoo_configs/reinforce.yml)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     return parser
 
@@ -99,6 +119,13 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None]:
         raise ValueError(f"Unknown algorithm(s) {unknown or args.algos!r}: choose among {', '.join(known_algos())}")
     if args.seeds < 1:
         raise ValueError(f"--seeds must be >= 1, got {args.seeds}")
+    if not 0 <= args.first_seed <= MAX_SEED - args.seeds + 1:
+        raise ValueError(
+            f"--first-seed must be from 0 to {MAX_SEED - args.seeds + 1:,} (the seeds run from 0 to {MAX_SEED:,}), "
+            f"got {args.first_seed}"
+        )
+    if args.workers < 1:
+        raise ValueError(f"--workers must be >= 1, got {args.workers}")
     if args.eval_episodes < 1:
         raise ValueError(f"--eval-episodes must be >= 1, got {args.eval_episodes}")
     threshold = _parse_threshold(args.threshold, args.env)
@@ -168,7 +195,8 @@ def sigterm_as_keyboard_interrupt() -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
-def _ignore_sigint() -> None:
+def ignore_sigint() -> None:
+    """Ignore SIGINT in this process (a worker's initializer: its parent stops it)."""
     # Ctrl-C reaches the whole process group: only the main process handles it (it stops the workers itself).
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
@@ -180,9 +208,9 @@ def _worker(spec: RunSpec, out_dir: Path, messages: Any) -> dict[str, Any]:
 def _run_all(todo: list[RunSpec], out_dir: Path, workers: int, show_progress: bool) -> None:
     context = mp.get_context("spawn")
     manager = SyncManager(ctx=context)
-    manager.start(_ignore_sigint)
+    manager.start(ignore_sigint)
     n_workers = max(1, min(workers, len(todo)))
-    with manager, context.Pool(n_workers, initializer=_ignore_sigint, maxtasksperchild=1) as pool:
+    with manager, context.Pool(n_workers, initializer=ignore_sigint, maxtasksperchild=1) as pool:
         messages = manager.Queue()
         pending = [pool.apply_async(_worker, (spec, out_dir, messages)) for spec in todo]
         done_steps: dict[str, int] = {}

@@ -17,7 +17,7 @@ import pandas as pd
 from sb3_reinforce.compare.report import PER_RUN_DIR, plot_seed_curves, seed_table, to_markdown
 from sb3_reinforce.stats import SOLVE_THRESHOLDS
 
-__all__ = ["main", "render", "render_seed", "update_readme"]
+__all__ = ["build_parser", "main", "render", "render_seed", "update_readme"]
 
 
 def _format_seed_table(table: pd.DataFrame) -> pd.DataFrame:
@@ -26,7 +26,10 @@ def _format_seed_table(table: pd.DataFrame) -> pd.DataFrame:
         if column.startswith(("episodes to", "steps to")):
             shown[column] = [("not reached" if pd.isna(v) or v == float("inf") else f"{int(v):,}") for v in shown[column]]
         elif "mean" in column or column == "wall-clock s":
-            shown[column] = [f"{v:,.1f}" for v in shown[column]]
+            # A window mean of a seed with fewer episodes than the window is NaN (see seed_table)
+            window = re.search(r"(\d+)-episode", column)
+            missing = f"n/a (fewer than {window.group(1)} episodes)" if window else "n/a"
+            shown[column] = [missing if pd.isna(v) else f"{v:,.1f}" for v in shown[column]]
         elif column in ("steps", "episodes"):
             shown[column] = [f"{int(v):,}" for v in shown[column]]
     return shown
@@ -98,11 +101,28 @@ def update_readme(readme: Path, tables: dict[str, str]) -> list[str]:
     return updated
 
 
+def build_parser() -> argparse.ArgumentParser:
+    """The ``report`` command's argument parser."""
+    parser = argparse.ArgumentParser(
+        prog="sb3-reinforce report",
+        description="Rebuild the tables and plots of result folders from their raw files and print each markdown "
+        "table. A folder with per_run/ is a comparison (sb3-reinforce compare), a folder with episodes_seed*.csv a "
+        "seed reproduction (sb3-reinforce seed).",
+    )
+    parser.add_argument("dirs", nargs="+", metavar="DIR", help="result folders")
+    parser.add_argument(
+        "--readme",
+        type=Path,
+        default=None,
+        help="also write each table into this markdown file, between the markers <!-- results:DIR --> and "
+        "<!-- /results:DIR --> (default: no file is written)",
+    )
+    return parser
+
+
 def main(argv: list[str] | None = None) -> None:
     """Command line entry point (see the module docstring)."""
-    parser = argparse.ArgumentParser(prog="sb3-reinforce report", description=__doc__.split("\n\n")[0])
-    parser.add_argument("dirs", nargs="+", help="result folders")
-    parser.add_argument("--readme", type=Path, default=None, help="write the tables into this file's markers")
+    parser = build_parser()
     args = parser.parse_args(argv)
     tables = {}
     for name in args.dirs:

@@ -18,6 +18,8 @@ import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
+from matplotlib.patches import Patch
+from matplotlib.ticker import FuncFormatter
 
 from sb3_reinforce.stats import bootstrap_ci, first_crossing, iqm, quantile_with_inf, rolling_mean
 
@@ -25,6 +27,7 @@ from sb3_reinforce.stats import bootstrap_ci, first_crossing, iqm, quantile_with
 PER_RUN_DIR = "per_run"
 
 __all__ = [
+    "BAND_LABEL",
     "PER_RUN_DIR",
     "load_summaries",
     "plot_learning_curves",
@@ -127,45 +130,67 @@ def _mean_ci_band(curves: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return mean, np.array([b[0] for b in bounds]), np.array([b[1] for b in bounds])
 
 
-def _finish_plot(fig: Figure, ax: Axes, threshold: float | None, xlabel: str, ylabel: str, title: str, path: Path) -> None:
-    """Draw the solve threshold (if any), label, save the PNG and close the figure."""
+#: What the shaded band around each curve is (named in every plot's legend).
+BAND_LABEL = "band: 95% bootstrap CI of the mean over seeds"
+
+
+def _seeds_label(name: str, n_seeds: int) -> str:
+    """A curve's legend entry: what it is the mean of (one seed has no band: its CI has zero width)."""
+    return f"{name}: mean over {n_seeds} seeds" if n_seeds > 1 else f"{name}: 1 seed (no band)"
+
+
+def _thousands(x: float, _position: float) -> str:
+    return f"{x:,.0f}"
+
+
+def _finish_plot(fig: Figure, ax: Axes, threshold: float | None, xlabel: str, ylabel: str, title: str, path: Path) -> Figure:
+    """
+    Draw the solve threshold (if any), name the band in the legend, write the x axis with thousands separators
+    (``20,000``, no scientific offset), label, save the PNG and close the figure.
+
+    :return: The figure (closed: its texts can still be read)
+    """
     if threshold is not None:
         ax.axhline(threshold, color="black", linestyle="--", linewidth=1, label=f"solved ({threshold:g})")
+    ax.xaxis.set_major_formatter(FuncFormatter(_thousands))
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(title)
-    ax.legend()
+    handles, _ = ax.get_legend_handles_labels()
+    ax.legend(handles=[*handles, Patch(facecolor="gray", alpha=0.2, label=BAND_LABEL)])
     ax.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
+    return fig
 
 
-def plot_learning_curves(results: pd.DataFrame, threshold: float | None, path: Path, title: str) -> None:
+def plot_learning_curves(results: pd.DataFrame, threshold: float | None, path: Path, title: str) -> Figure:
     """
-    Mean deterministic evaluation return over seeds and its 95% bootstrap CI, x in environment steps, one
-    line per algorithm, the solve threshold drawn.
+    Mean deterministic evaluation return over seeds and its 95% bootstrap CI (the band, named in the legend), x in
+    environment steps, one line per algorithm, the solve threshold drawn.
 
     :param results: The rows of ``results.csv``
     :param threshold: The solve threshold (None: not drawn)
     :param path: The PNG to write
     :param title: The plot's title
+    :return: The figure, saved and closed
     """
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for algo, algo_df in results.groupby("algo", sort=False):
         table = algo_df.pivot_table(index="eval_index", columns="seed", values="mean_return")
         steps = algo_df.groupby("eval_index")["steps"].median().loc[table.index].to_numpy()
         mean, low, high = _mean_ci_band(table.to_numpy().T)
-        n_seeds = table.shape[1]
-        (line,) = ax.plot(steps, mean, label=f"{_ALGO_NAMES.get(str(algo), str(algo).upper())} ({n_seeds} seeds)")
+        (line,) = ax.plot(steps, mean, label=_seeds_label(_ALGO_NAMES.get(str(algo), str(algo).upper()), table.shape[1]))
         ax.fill_between(steps, low, high, color=line.get_color(), alpha=0.2)
-    _finish_plot(fig, ax, threshold, "environment steps", "evaluation return (deterministic)", title, path)
+    return _finish_plot(fig, ax, threshold, "environment steps", "evaluation return (deterministic)", title, path)
 
 
 def seed_table(episodes: pd.DataFrame, threshold: float, window: int = 100) -> pd.DataFrame:
     """
     The seed reproduction's figures, one row per seed: episodes (and steps) until the mean training return
-    of the last ``window`` episodes reaches ``threshold``, and the final ``window``-episode mean.
+    of the last ``window`` episodes reaches ``threshold``, and the best and final ``window``-episode means
+    (NaN for a seed with fewer than ``window`` episodes: no full window).
 
     :param episodes: One row per training episode (``seed``, ``episode``, ``steps``, ``episode_return``, ...)
     :param threshold: The solve threshold
@@ -184,24 +209,25 @@ def seed_table(episodes: pd.DataFrame, threshold: float, window: int = 100) -> p
                 "steps": int(df["steps"].iloc[-1]),
                 f"episodes to a {window}-episode mean of {threshold:g}": first_crossing(df["episode"], moving, threshold),
                 f"steps to a {window}-episode mean of {threshold:g}": first_crossing(df["steps"], moving, threshold),
-                f"best {window}-episode mean": float(np.max(moving)),
-                f"final {window}-episode mean": float(moving[-1]),
+                f"best {window}-episode mean": float(np.max(moving)) if len(df) >= window else float("nan"),
+                f"final {window}-episode mean": float(moving[-1]) if len(df) >= window else float("nan"),
                 "wall-clock s": float(df["wall_time_s"].iloc[-1]),
             }
         )
     return pd.DataFrame(rows)
 
 
-def plot_seed_curves(episodes: pd.DataFrame, threshold: float, path: Path, title: str, window: int = 100) -> None:
+def plot_seed_curves(episodes: pd.DataFrame, threshold: float, path: Path, title: str, window: int = 100) -> Figure:
     """
     The mean over seeds of each seed's ``window``-episode moving mean of the training return, with its 95%
-    bootstrap CI, x in episodes, the threshold drawn.
+    bootstrap CI (the band, named in the legend), x in episodes, the threshold drawn.
 
     :param episodes: One row per training episode
     :param threshold: The solve threshold
     :param path: The PNG to write
     :param title: The plot's title
     :param window: Moving-mean window, in episodes
+    :return: The figure, saved and closed
     """
     # Up to the episode count that every seed reached (an unfinished run has fewer), so the mean is over all seeds
     n_max = int(episodes.groupby("seed")["episode"].max().min())
@@ -213,6 +239,7 @@ def plot_seed_curves(episodes: pd.DataFrame, threshold: float, path: Path, title
     x = np.arange(1, n_max + 1)[::step]
     mean, low, high = _mean_ci_band(curves[:, ::step])
     fig, ax = plt.subplots(figsize=(7, 4.5))
-    (line,) = ax.plot(x, mean, label=f"seed's agent ({curves.shape[0]} seeds)")
+    (line,) = ax.plot(x, mean, label=_seeds_label("seed's agent", curves.shape[0]))
     ax.fill_between(x, low, high, color=line.get_color(), alpha=0.2)
-    _finish_plot(fig, ax, threshold, "training episodes", f"training return, {window}-episode moving mean", title, path)
+    ylabel = f"training return, {window}-episode moving mean"
+    return _finish_plot(fig, ax, threshold, "training episodes", ylabel, title, path)

@@ -8,7 +8,9 @@ import argparse
 import contextlib
 import difflib
 import importlib
+import os
 import runpy
+import shutil
 import subprocess
 import sys
 from collections.abc import Callable, Iterator, Sequence
@@ -83,9 +85,41 @@ def _enjoy_through_this_entry_point() -> Iterator[None]:
         subprocess.call = original_call
 
 
+#: The copy of its table that rl_zoo3's benchmark writes into the current directory (its own repository's root).
+_ROOT_TABLE = "benchmark.md"
+
+
+@contextlib.contextmanager
+def _table_stays_in_benchmark_dir() -> Iterator[dict[str, Any]]:
+    """
+    rl_zoo3's benchmark writes its table to ``--benchmark-dir``/benchmark.md and then, without ``--test-mode``,
+    copies it to ``./benchmark.md`` (``shutil.copy(tmp_path, "benchmark.md")``): in the zoo's own clone that is its
+    README's table, anywhere else a stray file in the current directory. Leave that copy out (the table is already
+    in the benchmark folder) and drop the line that announces it.
+
+    :return: Globals for ``runpy.run_module`` (a ``print`` that drops the announcement of the copy)
+    """
+    original_copy = shutil.copy
+
+    def copy(src: Any, dst: Any, *args: Any, **kwargs: Any) -> Any:
+        if os.fspath(dst) == _ROOT_TABLE:
+            return os.fspath(src)
+        return original_copy(src, dst, *args, **kwargs)
+
+    def print_(*args: Any, **kwargs: Any) -> None:
+        if args != (f"Results copied to: {_ROOT_TABLE}",):
+            print(*args, **kwargs)
+
+    shutil.copy = copy
+    try:
+        yield {"print": print_}
+    finally:
+        shutil.copy = original_copy
+
+
 def _benchmark() -> None:
-    with _enjoy_through_this_entry_point():
-        runpy.run_module("rl_zoo3.benchmark", run_name="__main__", alter_sys=True)
+    with _enjoy_through_this_entry_point(), _table_stays_in_benchmark_dir() as init_globals:
+        runpy.run_module("rl_zoo3.benchmark", init_globals=init_globals, run_name="__main__", alter_sys=True)
 
 
 #: Command name -> the rl_zoo3 command it runs.
