@@ -1,5 +1,5 @@
 """
-The seed reproduced: the seed's agent (:func:`~sb3_reinforce.presets.seed_hyperparams`) trained for a fixed
+The seed re-run: the seed's agent (:func:`~sb3_reinforce.presets.seed_hyperparams`) trained for a fixed
 number of episodes, one training-episode return per row, x axis in episodes, as the blog post reported it.
 
     python -m sb3_reinforce.seed_reproduction --env LunarLander-v3 --episodes 5000 --seeds 3 --out DIR
