@@ -430,34 +430,14 @@ def test_help_names_the_command_and_every_default(
 @pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
 def test_stopping_seed_stops_its_workers(tmp_path: Path, sig: str) -> None:
     # As compare: the workers do not outlive the command, which says so in one line and exits 130.
-    import signal
-    import subprocess
     import sys
-    import time
-
-    import psutil
 
     cmd = [sys.executable, "-m", "sb3_reinforce.cli", "seed", "--env", "CartPole-v1", "--episodes", "1000000"]
     cmd += ["--seeds", "1", "--workers", "1", "--out", str(tmp_path / "out")]
-    proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    parent = psutil.Process(proc.pid)
-    deadline = time.monotonic() + 120
     episodes = tmp_path / "out" / "episodes_seed0.csv"
-    # Wait until the seed is training: its file has a finished episode
-    while not (episodes.exists() and len(episodes.read_text().splitlines()) > 1):
-        assert proc.poll() is None and time.monotonic() < deadline, proc.stdout.read() if proc.stdout else ""
-        time.sleep(0.5)
-    children = parent.children(recursive=True)
-    assert children
-    if sig == "SIGINT":
-        os.killpg(proc.pid, signal.SIGINT)
-    else:
-        proc.send_signal(signal.SIGTERM)
-    output, _ = proc.communicate(timeout=60)
-    assert proc.returncode == 130
+    # Stopped once the seed is training: its file has a finished episode
+    output = stop_and_check_workers(cmd, sig, lambda: episodes.exists() and len(episodes.read_text().splitlines()) > 1)
     assert output.startswith("Interrupted: ") and output.count("\n") == 1, output
-    _, alive = psutil.wait_procs(children, timeout=30)
-    assert not alive, f"workers left running: {alive}"
 
 
 def test_reward_floor_cuts_the_episode() -> None:
@@ -482,20 +462,29 @@ def test_update_readme_markers(tmp_path: Path) -> None:
 def test_stopping_compare_stops_its_workers(tmp_path: Path, sig: str) -> None:
     # Ctrl-C (SIGINT to the process group) or `kill PID` (SIGTERM to the main process only): the workers must
     # not outlive the command, and the command exits as interrupted (130).
+    import sys
+
+    cmd = [sys.executable, "-m", "sb3_reinforce.compare", "--env", "CartPole-v1", "--algos", "reinforce"]
+    cmd += ["--seeds", "1", "--budget", "10000000", "--workers", "1", "--no-progress", "--out", str(tmp_path / "out")]
+    # Stopped once a run is training: its per-run CSV exists (written at the first evaluation, step 0)
+    stop_and_check_workers(cmd, sig, lambda: bool(list((tmp_path / "out").glob(f"{PER_RUN_DIR}/*.csv"))))
+
+
+def stop_and_check_workers(cmd: list[str], sig: str, training: "Callable[[], bool]") -> str:
+    """
+    Start ``cmd``, wait until ``training()``, send ``sig`` (SIGINT to the process group as Ctrl-C does, SIGTERM to
+    the main process as ``kill PID``), check it exits 130 and leaves no worker running; return its output.
+    """
     import signal
     import subprocess
-    import sys
     import time
 
     import psutil
 
-    cmd = [sys.executable, "-m", "sb3_reinforce.compare", "--env", "CartPole-v1", "--algos", "reinforce"]
-    cmd += ["--seeds", "1", "--budget", "10000000", "--workers", "1", "--no-progress", "--out", str(tmp_path / "out")]
-    proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     parent = psutil.Process(proc.pid)
     deadline = time.monotonic() + 120
-    # Wait until a run is training: its per-run CSV exists (written at the first evaluation, step 0)
-    while not list((tmp_path / "out").glob(f"{PER_RUN_DIR}/*.csv")):
+    while not training():
         assert proc.poll() is None and time.monotonic() < deadline, proc.stdout.read() if proc.stdout else ""
         time.sleep(0.5)
     children = parent.children(recursive=True)
@@ -504,6 +493,8 @@ def test_stopping_compare_stops_its_workers(tmp_path: Path, sig: str) -> None:
         os.killpg(proc.pid, signal.SIGINT)
     else:
         proc.send_signal(signal.SIGTERM)
-    assert proc.wait(timeout=60) == 130
+    output, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 130, output
     _, alive = psutil.wait_procs(children, timeout=30)
     assert not alive, f"workers left running: {alive}"
+    return output
