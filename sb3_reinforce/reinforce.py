@@ -289,11 +289,11 @@ class REINFORCE(OnPolicyAlgorithm):
         """
         assert self.value_optimizer is not None
         update_learning_rate(self.value_optimizer, self.value_lr_schedule(self._current_progress_remaining))
+        parameters = [p for group in self.value_optimizer.param_groups for p in group["params"]]
         for _ in range(self.n_value_steps):
             value_loss = F.mse_loss(self.policy.predict_values(observations).flatten(), returns)
             self.value_optimizer.zero_grad()
             value_loss.backward()
-            parameters = [p for group in self.value_optimizer.param_groups for p in group["params"]]
             if self.max_grad_norm is not None:
                 grad_norm = th.nn.utils.clip_grad_norm_(parameters, self.max_grad_norm)
             else:

@@ -114,9 +114,10 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None]:
     except gym.error.Error as error:
         raise ValueError(f"Unknown environment {args.env!r}: {error}") from None
     algos = list(dict.fromkeys(algo.strip().lower() for algo in args.algos.split(",") if algo.strip()))
-    unknown = [algo for algo in algos if algo not in known_algos()]
+    known = known_algos()
+    unknown = [algo for algo in algos if algo not in known]
     if unknown or not algos:
-        raise ValueError(f"Unknown algorithm(s) {unknown or args.algos!r}: choose among {', '.join(known_algos())}")
+        raise ValueError(f"Unknown algorithm(s) {unknown or args.algos!r}: choose among {', '.join(known)}")
     if args.seeds < 1:
         raise ValueError(f"--seeds must be >= 1, got {args.seeds}")
     if not 0 <= args.first_seed <= MAX_SEED - args.seeds + 1:

@@ -97,8 +97,9 @@ def read_entry(algo: str, env_id: str, config: Path | None = None) -> ZooEntry:
     :param config: The yml file (default: REINFORCE's zoo config, or the installed rl_zoo3's file for the algorithm)
     :return: The entry
     """
-    if algo not in known_algos():
-        raise ValueError(f"Unknown algorithm {algo!r}: choose among {', '.join(known_algos())}")
+    known = known_algos()
+    if algo not in known:
+        raise ValueError(f"Unknown algorithm {algo!r}: choose among {', '.join(known)}")
     manager = _manager(algo, env_id, 0, 0, os.devnull, config)
     with _quiet():
         try:
