@@ -36,6 +36,18 @@ def xavier_init_(module: nn.Module) -> None:
                     nn.init.xavier_uniform_(layer.bias.view(-1, 1))
 
 
+def normal_init_(module: nn.Module, std: float, bias: float) -> None:
+    """
+    Weights drawn from ``N(0, std**2)`` and every bias set to ``bias``, as the seed's ``tf.layers`` scripts
+    (``policy_gradient_layers.py``: ``random_normal_initializer(stddev=0.3)``, ``constant_initializer(0.1)``).
+    """
+    for layer in module.modules():
+        if isinstance(layer, (nn.Linear, nn.Conv2d)):
+            nn.init.normal_(layer.weight, mean=0.0, std=std)
+            if layer.bias is not None:
+                nn.init.constant_(layer.bias, bias)
+
+
 class ReinforcePolicy(ActorCriticPolicy):
     """
     Policy class for REINFORCE (actor, plus a critic used as baseline when ``value_head=True``).
@@ -52,6 +64,9 @@ class ReinforcePolicy(ActorCriticPolicy):
         algorithm from its ``baseline`` argument.
     :param xavier_init: Initialize all weights and biases Glorot-uniform, as the seed did, instead of
         SB3's orthogonal initialization (``ortho_init`` is then ignored).
+    :param normal_init: ``(std, bias)``: initialize every weight from ``N(0, std**2)`` and every bias to
+        ``bias``, as the seed's CarRacing script did (``(0.3, 0.1)``), instead of SB3's orthogonal
+        initialization (``ortho_init`` is then ignored). None (default): not used. Not with ``xavier_init``.
     :param fast_rollout: Sample the rollout's actions with :class:`~sb3_reinforce.sampling.FastSampler`, and
         evaluate ``log pi(a|s)`` and the entropy in :meth:`evaluate_actions` with their closed forms (categorical
         and diagonal Gaussian policies): the same distributions and values as SB3's, without building
@@ -72,10 +87,18 @@ class ReinforcePolicy(ActorCriticPolicy):
         value_head: bool = True,
         xavier_init: bool = False,
         fast_rollout: bool = True,
+        normal_init: tuple[float, float] | None = None,
         **kwargs: Any,
     ):
+        if normal_init is not None:
+            if xavier_init:
+                raise ValueError("policy_kwargs: give either xavier_init=True or normal_init=(std, bias), not both")
+            if len(normal_init) != 2 or not all(math.isfinite(v) for v in normal_init) or not normal_init[0] > 0:
+                raise ValueError(f"policy_kwargs normal_init must be (std, bias), std > 0, both finite; got {normal_init!r}")
+            normal_init = (float(normal_init[0]), float(normal_init[1]))
         self.value_head = value_head
         self.xavier_init = xavier_init
+        self.normal_init = normal_init
         self.fast_rollout = fast_rollout
         if not value_head:
             # A separate critic feature extractor would never be used.
@@ -101,13 +124,17 @@ class ReinforcePolicy(ActorCriticPolicy):
             del self.value_net
         if self.xavier_init:
             xavier_init_(self)
-        if not self.value_head or self.xavier_init:
+        if self.normal_init is not None:
+            normal_init_(self, *self.normal_init)
+        if not self.value_head or self.xavier_init or self.normal_init is not None:
             # Parameters changed after SB3 created the optimizer: create it again.
             self.optimizer = self.optimizer_class(self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)  # type: ignore[call-arg]
 
     def _get_constructor_parameters(self) -> dict[str, Any]:
         data = super()._get_constructor_parameters()
         data.update(value_head=self.value_head, xavier_init=self.xavier_init, fast_rollout=self.fast_rollout)
+        if self.normal_init is not None:
+            data.update(normal_init=self.normal_init)
         if not self.value_head:
             data.pop("share_features_extractor", None)
         return data

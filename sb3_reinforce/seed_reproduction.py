@@ -8,11 +8,17 @@ Each seed runs in its own process and appends one row per finished training epis
 ``DIR/episodes.csv`` (flushed at once, so an interrupted run keeps every finished episode). A seed whose
 episodes are all in the file is skipped when the command is run again.
 
-Differences from the seed, on purpose: the seed ran its envs unwrapped and cut a LunarLander episode after
-120 s of wall-clock time or when its summed reward fell below -250. Here the registered time limit
-(LunarLander-v3: 1,000 steps, CartPole-v1: 500 steps) replaces the wall-clock cut, which depends on the
-machine and would let an unwrapped CartPole balance forever; the -250 cut is kept for LunarLander
-(``--reward-floor``, as a truncation).
+The environments are made as the seed's scripts made them where that is part of the experiment
+(:func:`~sb3_reinforce.seed_envs.make_seed_env`: MountainCar without a time limit, CarRacing's 502-step
+episodes, its pixels and its discrete actions). Differences from the seed, on purpose: the seed ran its other
+envs unwrapped too and cut a LunarLander episode after 120 s of wall-clock time or when its summed reward fell
+below -250. Here the registered time limit (LunarLander-v3: 1,000 steps, CartPole-v1: 500 steps) replaces the
+wall-clock cut, which depends on the machine and would let an unwrapped CartPole balance forever; the -250 cut
+is kept for LunarLander (``--reward-floor``, as a truncation).
+
+A seed can stop before its episodes are done: at ``--max-steps`` training steps, or when one episode outgrows
+the rollout buffer (``--max-episode-steps``, an env without a time limit whose policy never ends it). Its
+finished episodes are kept, ``episodes_seedN.stopped`` says why, and the seed counts as done.
 """
 
 import argparse
@@ -32,8 +38,10 @@ import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.monitor import Monitor
 
+from sb3_reinforce.buffers import RolloutLimitError
 from sb3_reinforce.presets import seed_hyperparams
 from sb3_reinforce.reinforce import REINFORCE
+from sb3_reinforce.seed_envs import make_seed_env
 
 __all__ = ["EPISODE_COLUMNS", "RewardFloor", "build_parser", "main", "run_seed"]
 
@@ -105,13 +113,21 @@ class _EpisodeRecorder(BaseCallback):
 
 
 def _make_env(env_id: str, reward_floor: float | None) -> gym.Env:
-    env = gym.make(env_id)
+    env = make_seed_env(env_id)
     if reward_floor is not None:
         env = RewardFloor(env, reward_floor)
     return Monitor(env)
 
 
-def run_seed(env_id: str, seed: int, n_episodes: int, out_dir: Path, reward_floor: float | None) -> None:
+def run_seed(
+    env_id: str,
+    seed: int,
+    n_episodes: int,
+    out_dir: Path,
+    reward_floor: float | None,
+    max_steps: int | None = None,
+    max_episode_steps: int = 1_000_000,
+) -> None:
     """
     Train the seed's agent on ``env_id`` for ``n_episodes`` episodes and append its episodes to
     ``out_dir / f"episodes_seed{seed}.csv"`` (one file per seed: no two processes write the same file).
@@ -121,19 +137,43 @@ def run_seed(env_id: str, seed: int, n_episodes: int, out_dir: Path, reward_floo
     :param n_episodes: Number of training episodes
     :param out_dir: Output folder
     :param reward_floor: End an episode when its summed reward falls below this (None: never)
+    :param max_steps: Stop after this many training steps even if fewer episodes are done (None: no cap)
+    :param max_episode_steps: Stop when one episode reaches this many steps without ending (the model's
+        ``max_rollout_steps``: the rollout buffer holds the whole episode)
     """
     th.set_num_threads(1)
     path = out_dir / f"episodes_seed{seed}.csv"
+    stopped = _stopped_path(path)
+    stopped.unlink(missing_ok=True)
     # A partial file is from an interrupted run: it cannot be continued (the weights are gone), so start over.
     with path.open("w", newline="") as f:
         csv.writer(f).writerow(EPISODE_COLUMNS)
-    model = REINFORCE(env=_make_env(env_id, reward_floor), seed=seed, device="cpu", **seed_hyperparams(env_id))
+    model = REINFORCE(
+        env=_make_env(env_id, reward_floor),
+        seed=seed,
+        device="cpu",
+        max_rollout_steps=max_episode_steps,
+        **seed_hyperparams(env_id),
+    )
     recorder = _EpisodeRecorder(path, env_id, seed, n_episodes)
-    # Stopped by the recorder after n_episodes; the step budget is only a safety bound.
-    model.learn(total_timesteps=10**9, callback=recorder)
+    # Stopped by the recorder after n_episodes, or by the step cap.
+    try:
+        model.learn(total_timesteps=10**9 if max_steps is None else max_steps, callback=recorder)
+    except RolloutLimitError:
+        reason = f"episode {recorder.episode + 1} did not end within {max_episode_steps:,} steps (--max-episode-steps)"
+    else:
+        reason = "" if recorder.episode >= n_episodes else f"the step cap of {max_steps:,} steps (--max-steps) was reached"
+    if reason:
+        stopped.write_text(f"seed {seed} stopped after {recorder.episode:,} of {n_episodes:,} episodes: {reason}\n")
+
+
+def _stopped_path(path: Path) -> Path:
+    return path.with_suffix(".stopped")
 
 
 def _finished(path: Path, n_episodes: int) -> bool:
+    if _stopped_path(path).exists():
+        return True
     if not path.exists():
         return False
     try:
@@ -160,6 +200,19 @@ def build_parser() -> argparse.ArgumentParser:
         "(default: no floor)",
     )
     parser.add_argument(
+        "--max-steps",
+        type=int,
+        default=None,
+        help="stop a seed after this many training steps, its finished episodes kept (default: no cap)",
+    )
+    parser.add_argument(
+        "--max-episode-steps",
+        type=int,
+        default=1_000_000,
+        help="stop a seed whose episode runs this many steps without ending: the rollout buffer holds whole "
+        "episodes, and an env without a time limit can run forever (default: %(default)s)",
+    )
+    parser.add_argument(
         "--workers", type=int, default=os.cpu_count() or 1, help="parallel seeds, >= 1 (default: the CPU cores, %(default)s)"
     )
     parser.add_argument("--out", type=Path, required=True, help="output folder (required)")
@@ -174,13 +227,17 @@ def main(argv: list[str] | None = None) -> None:
         parser.error("--seeds and --episodes must be >= 1")
     if args.workers < 1:
         parser.error(f"--workers must be >= 1, got {args.workers}")
+    if args.max_steps is not None and args.max_steps < 1:
+        parser.error(f"--max-steps must be >= 1, got {args.max_steps}")
+    if args.max_episode_steps < 1:
+        parser.error(f"--max-episode-steps must be >= 1, got {args.max_episode_steps}")
     try:
         gym.spec(args.env)
     except gym.error.Error as error:
         parser.error(f"Unknown environment {args.env!r}: {error}")
     args.out.mkdir(parents=True, exist_ok=True)
     todo = [s for s in range(args.seeds) if not _finished(args.out / f"episodes_seed{s}.csv", args.episodes)]
-    jobs = [(args.env, s, args.episodes, args.out, args.reward_floor) for s in todo]
+    jobs = [(args.env, s, args.episodes, args.out, args.reward_floor, args.max_steps, args.max_episode_steps) for s in todo]
     from sb3_reinforce.compare.cli import ignore_sigint, sigterm_as_keyboard_interrupt
     from sb3_reinforce.compare.render import render_seed
 

@@ -27,6 +27,7 @@ SOLVE_THRESHOLDS: dict[str, float] = {
     "MountainCar-v0": -110.0,
     "Pendulum-v1": -200.0,
     "LunarLanderContinuous-v3": 200.0,
+    "CarRacing-v3": 900.0,
 }
 
 

@@ -19,8 +19,17 @@ from sb3_reinforce.compare import runner
 from sb3_reinforce.compare.cli import _check_resumable, build_parser, main, parse_specs, write_outputs
 from sb3_reinforce.compare.experiment import EVAL_SEED_OFFSET, build_run, known_algos, read_entry
 from sb3_reinforce.compare.render import build_parser as build_report_parser
+from sb3_reinforce.compare.render import main as render_main
 from sb3_reinforce.compare.render import update_readme
-from sb3_reinforce.compare.report import BAND_LABEL, PER_RUN_DIR, plot_learning_curves, plot_seed_curves, seed_table
+from sb3_reinforce.compare.report import (
+    BAND_LABEL,
+    PER_RUN_DIR,
+    overview_table,
+    plot_learning_curves,
+    plot_seed_curves,
+    seed_table,
+    to_markdown,
+)
 from sb3_reinforce.compare.runner import RESULT_COLUMNS, RunSpec, code_version
 from sb3_reinforce.seed_reproduction import EPISODE_COLUMNS, RewardFloor
 from sb3_reinforce.seed_reproduction import build_parser as build_seed_parser
@@ -498,3 +507,59 @@ def stop_and_check_workers(cmd: list[str], sig: str, training: "Callable[[], boo
     _, alive = psutil.wait_procs(children, timeout=30)
     assert not alive, f"workers left running: {alive}"
     return output
+
+
+def _fake_comparison(folder: Path, env_id: str, threshold: float, curves: dict[tuple[str, int], list[float]]) -> None:
+    """A comparison folder as compare writes it: comparison.json, per_run/ CSVs and JSONs, then its outputs."""
+    (folder / PER_RUN_DIR).mkdir(parents=True)
+    (folder / "comparison.json").write_text(json.dumps(dict(env=env_id, threshold=threshold)))
+    for (algo, seed), returns in curves.items():
+        rows = [
+            dict(env=env_id, algo=algo, seed=seed, eval_index=i, steps=1000 * i, episodes=i, wall_time_s=2.0 * i)
+            | dict(mean_return=r, std_return=0.0, mean_return_stochastic=r - 1, std_return_stochastic=0.0, peak_rss_mb=1.0)
+            for i, r in enumerate(returns)
+        ]
+        pd.DataFrame(rows, columns=RESULT_COLUMNS).to_csv(folder / PER_RUN_DIR / f"{algo}_seed{seed}.csv", index=False)
+        spec = dict(algo=algo, seed=seed, env_id=env_id)
+        (folder / PER_RUN_DIR / f"{algo}_seed{seed}.json").write_text(
+            json.dumps(dict(spec=spec, steps_per_s=1.0, peak_rss_mb=1.0, cpu_time_s=1.0))
+        )
+    write_outputs(folder, env_id, threshold)
+
+
+def test_overview_table_hand_computed(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # REINFORCE on seeds 10-12 (reaching 5 at 2,000 and 3,000 steps, one never), PPO on seed 0 in the first
+    # folder; the second folder's PPO row is shadowed by the first's, its A2C row is new.
+    first, second = tmp_path / "first", tmp_path / "second"
+    _fake_comparison(
+        first,
+        "CartPole-v1",
+        5.0,
+        {
+            ("reinforce", 10): [9, 1, 5, 6],
+            ("reinforce", 11): [0, 1, 2, 7],
+            ("reinforce", 12): [0, 1, 1, 1],
+            ("ppo", 0): [0, 5, 5, 5],
+        },
+    )
+    _fake_comparison(second, "CartPole-v1", 5.0, {("ppo", 0): [0, 0, 0, 0], ("a2c", 0): [0, 0, 0, 3]})
+    table = overview_table([first, second])
+    assert list(table["algorithm"]) == ["REINFORCE", "PPO", "A2C"]
+    reinforce, ppo, a2c = (table.iloc[i] for i in range(3))
+    # seed 10 scores 9 before training (eval_index 0): not counted; it reaches 5 at 2,000 steps, seed 11 at 3,000
+    assert reinforce["seeds reaching"] == "2/3 (seeds 10-12)"
+    assert reinforce["median steps to reach"] == "3,000"  # median of 2,000, 3,000 and never
+    assert reinforce["median seconds to reach"] == "6.0"
+    # IQM of 3 values (trim_mean 0.25 drops none): mean(6, 7, 1), and of the sampled-action finals mean(5, 6, 0)
+    assert reinforce["final IQM"] == "4.7" and reinforce["final IQM, sampled actions"] == "3.7"
+    assert reinforce["budget"] == "3k" and reinforce["env (threshold)"] == "CartPole-v1 (5)"
+    assert ppo["seeds reaching"] == "1/1 (seeds 0)" and ppo["folder"] == f"`{first.as_posix()}`"
+    assert a2c["seeds reaching"] == "0/1 (seeds 0)" and a2c["median steps to reach"] == "not reached"
+    # the report command writes it between the summary markers
+    page = tmp_path / "page.md"
+    page.write_text("a\n<!-- summary -->\nold\n<!-- /summary -->\nb\n")
+    render_main([str(first), str(second), "--summary", str(page)])
+    assert page.read_text() == "a\n<!-- summary -->\n" + to_markdown(table) + "<!-- /summary -->\nb\n"
+    assert "summary updated" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        render_main([str(first), "--summary", str(tmp_path / "first" / "summary.md")])  # no markers there

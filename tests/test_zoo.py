@@ -202,7 +202,7 @@ def test_config_entry_builds_and_trains(tmp_path: Path, config: str, env_id: str
 @pytest.mark.parametrize("env_id", sorted(yaml.safe_load(CONFIGS["reinforce_seed"].read_text())))
 def test_seed_config_is_the_seed_preset(env_id: str) -> None:
     entry = yaml.safe_load(CONFIGS["reinforce_seed"].read_text())[env_id]
-    as_constructor_args = {k: v for k, v in entry.items() if k not in ("n_envs", "n_timesteps", "env_kwargs")}
+    as_constructor_args = {k: v for k, v in entry.items() if k not in ("n_envs", "n_timesteps", "env_kwargs", "env_wrapper")}
     as_constructor_args["policy_kwargs"] = zoo_eval(as_constructor_args["policy_kwargs"])
     as_constructor_args.pop("max_rollout_steps", None)
     assert entry["n_envs"] == 1

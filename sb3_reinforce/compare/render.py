@@ -14,10 +14,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from sb3_reinforce.compare.report import PER_RUN_DIR, plot_seed_curves, seed_table, to_markdown
+from sb3_reinforce.compare.report import PER_RUN_DIR, overview_table, plot_seed_curves, seed_table, to_markdown
 from sb3_reinforce.stats import SOLVE_THRESHOLDS
 
-__all__ = ["build_parser", "main", "render", "render_seed", "update_readme"]
+__all__ = ["build_parser", "main", "render", "render_seed", "update_readme", "write_between_markers"]
 
 
 def _format_seed_table(table: pd.DataFrame) -> pd.DataFrame:
@@ -44,13 +44,22 @@ def render_seed(out_dir: Path) -> str:
     :return: The markdown table
     """
     frames = [pd.read_csv(path) for path in sorted(out_dir.glob("episodes_seed*.csv"))]
-    episodes = pd.concat([f for f in frames if len(f)], ignore_index=True)
+    # Seeds that stopped before their episodes were done (sb3-reinforce seed --max-steps/--max-episode-steps)
+    stops = "".join(f"- {path.read_text().strip()}\n" for path in sorted(out_dir.glob("episodes_seed*.stopped")))
+    finished = [f for f in frames if len(f)]
+    if not finished:
+        markdown = "No training episode finished.\n" + (f"\n{stops}" if stops else "")
+        (out_dir / "summary.md").write_text(markdown)
+        return markdown
+    episodes = pd.concat(finished, ignore_index=True)
     episodes.to_csv(out_dir / "episodes.csv", index=False)
     env_id = str(episodes["env"].iloc[0])
     threshold = SOLVE_THRESHOLDS[env_id]
     table = seed_table(episodes, threshold)
     table.to_csv(out_dir / "summary.csv", index=False)
     markdown = to_markdown(_format_seed_table(table))
+    if stops:
+        markdown = markdown.rstrip("\n") + "\n\n" + stops
     (out_dir / "summary.md").write_text(markdown)
     plot_seed_curves(episodes, threshold, out_dir / "learning_curve.png", f"{env_id}: the seed's agent")
     return markdown
@@ -82,6 +91,20 @@ def render(out_dir: Path) -> str:
     raise ValueError(f"{out_dir} is neither a comparison (per_run/) nor a seed reproduction (episodes_seed*.csv)")
 
 
+def write_between_markers(path: Path, marker: str, text: str) -> bool:
+    """
+    Replace what stands between ``<!-- MARKER -->`` and ``<!-- /MARKER -->`` in a markdown file.
+
+    :return: Whether the markers were found (the file is left as it was otherwise)
+    """
+    content = path.read_text()
+    pattern = re.compile(rf"(<!-- {re.escape(marker)} -->\n).*?(<!-- /{re.escape(marker)} -->)", re.DOTALL)
+    content, count = pattern.subn(lambda m: m.group(1) + text + m.group(2), content)
+    if count:
+        path.write_text(content)
+    return bool(count)
+
+
 def update_readme(readme: Path, tables: dict[str, str]) -> list[str]:
     """
     Replace the text between ``<!-- results:DIR -->`` and ``<!-- /results:DIR -->`` with each folder's table.
@@ -111,6 +134,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("dirs", nargs="+", metavar="DIR", help="result folders")
     parser.add_argument(
+        "--summary",
+        type=Path,
+        default=None,
+        help="also write the one-screen summary of the comparison folders (one row per env and algorithm, the "
+        "first folder that has it) into this markdown file, between <!-- summary --> and <!-- /summary --> "
+        "(default: no file is written)",
+    )
+    parser.add_argument(
         "--readme",
         type=Path,
         default=None,
@@ -131,6 +162,13 @@ def main(argv: list[str] | None = None) -> None:
         except ValueError as error:
             parser.error(str(error))
         print(f"## {name}\n\n{tables[name.rstrip('/')]}")
+    if args.summary is not None:
+        comparisons = [Path(name) for name in args.dirs if (Path(name) / PER_RUN_DIR).is_dir()]
+        overview = to_markdown(overview_table(comparisons))
+        print(f"## Summary\n\n{overview}")
+        if not write_between_markers(args.summary, "summary", overview):
+            parser.error(f"{args.summary} has no <!-- summary --> and <!-- /summary --> markers")
+        print(f"{args.summary}: summary updated")
     if args.readme is not None:
         updated = update_readme(args.readme, tables)
         missing = sorted(set(tables) - set(updated))

@@ -30,6 +30,7 @@ __all__ = [
     "BAND_LABEL",
     "PER_RUN_DIR",
     "load_summaries",
+    "overview_table",
     "plot_learning_curves",
     "plot_seed_curves",
     "seed_table",
@@ -69,6 +70,69 @@ def load_summaries(out_dir: Path) -> dict[tuple[str, int], dict]:
     return summaries
 
 
+def _finals(per_seed: Sequence[pd.DataFrame], column: str) -> list[float]:
+    """Each seed's last evaluation (its final score)."""
+    return [float(df[column].iloc[-1]) for df in per_seed]
+
+
+def _seed_range(seeds: Sequence[int]) -> str:
+    """``1000-1009`` for consecutive seeds, else the list."""
+    seeds = sorted(seeds)
+    if len(seeds) > 2 and seeds == list(range(seeds[0], seeds[-1] + 1)):
+        return f"{seeds[0]}-{seeds[-1]}"
+    return ", ".join(map(str, seeds))
+
+
+def _steps_short(steps: float) -> str:
+    """``1M``, ``500k``, ``100k`` (a budget, rounded to 1,000 steps)."""
+    thousands = round(steps / 1000)
+    return f"{thousands / 1000:g}M" if thousands >= 1000 else f"{thousands}k"
+
+
+def overview_table(folders: Sequence[Path]) -> pd.DataFrame:
+    """
+    The one-screen summary over comparisons: one row per environment and algorithm, from each folder's
+    ``results.csv`` and ``comparison.json``. Where several folders hold the same environment and algorithm, the
+    first folder given is used.
+
+    :param folders: Comparison output folders (``sb3-reinforce compare --out``), in the order of the rows
+    :return: A table of strings: env (threshold), algorithm, budget, seeds reaching the threshold (which seeds),
+        median steps and seconds to reach it (not-reached seeds counted as infinitely late), final IQM of the
+        deterministic and of the sampled-action evaluations, and the folder
+    """
+    rows = []
+    seen: set[tuple[str, str]] = set()
+    for folder in folders:
+        meta = json.loads((Path(folder) / "comparison.json").read_text())
+        env_id, threshold = str(meta["env"]), meta["threshold"]
+        results = pd.read_csv(Path(folder) / "results.csv")
+        for algo, algo_df in results.groupby("algo", sort=False):
+            if (env_id, str(algo)) in seen:
+                continue
+            seen.add((env_id, str(algo)))
+            per_seed = [seed_df.sort_values("eval_index") for _, seed_df in algo_df.groupby("seed")]
+            trained = [df[df["eval_index"] > 0] for df in per_seed]
+            row = {
+                "env (threshold)": env_id if threshold is None else f"{env_id} ({threshold:g})",
+                "algorithm": _ALGO_NAMES.get(str(algo), str(algo).upper()),
+                "budget": _steps_short(float(np.median([df["steps"].iloc[-1] for df in per_seed]))),
+            }
+            if threshold is not None:
+                steps_to = [first_crossing(df["steps"], df["mean_return"], threshold) for df in trained]
+                seconds_to = [first_crossing(df["wall_time_s"], df["mean_return"], threshold) for df in trained]
+                median_steps, median_seconds = (quantile_with_inf(v, 0.5) for v in (steps_to, seconds_to))
+                seeds = _seed_range([int(s) for s in algo_df["seed"].unique()])
+                row["seeds reaching"] = f"{int(np.isfinite(steps_to).sum())}/{len(per_seed)} (seeds {seeds})"
+                row["median steps to reach"] = "not reached" if np.isinf(median_steps) else f"{median_steps:,.0f}"
+                row["median seconds to reach"] = "not reached" if np.isinf(median_seconds) else f"{median_seconds:,.1f}"
+            row["final IQM"] = f"{iqm(_finals(per_seed, 'mean_return')):.1f}"
+            if "mean_return_stochastic" in algo_df:
+                row["final IQM, sampled actions"] = f"{iqm(_finals(per_seed, 'mean_return_stochastic')):.1f}"
+            row["folder"] = f"`{Path(folder).as_posix().rstrip('/')}`"
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
 def summary_table(results: pd.DataFrame, summaries: dict[tuple[str, int], dict], threshold: float | None) -> pd.DataFrame:
     """
     One row per algorithm: the comparison's figures over seeds (deterministic evaluation returns).
@@ -84,7 +148,7 @@ def summary_table(results: pd.DataFrame, summaries: dict[tuple[str, int], dict],
         # Reaching the threshold counts from the first evaluation after training started: an untrained
         # deterministic policy can score high by chance (PPO's initial policy balances CartPole on some seeds).
         trained = [df[df["eval_index"] > 0] for df in per_seed]
-        finals = [float(df["mean_return"].iloc[-1]) for df in per_seed]
+        finals = _finals(per_seed, "mean_return")
         low, high = bootstrap_ci(finals, iqm)
         row = {
             "algorithm": _ALGO_NAMES.get(str(algo), str(algo).upper()),
@@ -92,6 +156,8 @@ def summary_table(results: pd.DataFrame, summaries: dict[tuple[str, int], dict],
             "steps": f"{int(np.median([df['steps'].iloc[-1] for df in per_seed])):,}",
             "final score, IQM [95% CI]": f"{iqm(finals):.1f} [{low:.1f}, {high:.1f}]",
         }
+        if "mean_return_stochastic" in algo_df:
+            row["final sampled-action score, IQM"] = f"{iqm(_finals(per_seed, 'mean_return_stochastic')):.1f}"
         if threshold is not None:
             row[f"steps to {threshold:g}, median [IQR]"] = _median_iqr(
                 [first_crossing(df["steps"], df["mean_return"], threshold) for df in trained]
