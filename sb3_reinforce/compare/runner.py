@@ -3,10 +3,19 @@ One run of the comparison: one algorithm, one seed. It trains on ``n_envs`` trai
 ``eval_freq`` environment steps (all training environments counted), evaluates on a separate evaluation
 environment: ``n_eval_episodes`` episodes with deterministic actions, then as many with sampled actions.
 Each evaluation is appended at once to the run's CSV, so an interrupted run keeps what it measured.
+
+After each evaluation the run also saves a checkpoint (``<algo>_seed<seed>.checkpoint.zip``: the model with its
+optimizer and step count, ``VecNormalize``'s statistics, and the callback's counters in
+``.checkpoint.json``). A run interrupted after its first evaluation resumes from its last checkpoint when the
+comparison is run again, so a run longer than a session still finishes. A resumed run keeps its weights,
+optimizer state, step count and learning-rate schedule, but not the episodes that were running, nor the random
+number streams: its curve is not the one an uninterrupted run would have drawn, and its JSON lists the steps it
+resumed at (``resumed_at_steps``). The checkpoint files are deleted once the run is finished.
 """
 
 import csv
 import json
+import pickle
 import subprocess
 import tempfile
 import time
@@ -17,6 +26,7 @@ from typing import Any
 import numpy as np
 import psutil
 import torch as th
+from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.evaluation import evaluate_policy
 from stable_baselines3.common.vec_env import VecEnv, sync_envs_normalization
@@ -25,7 +35,7 @@ from sb3_reinforce.compare.experiment import build_run
 from sb3_reinforce.compare.report import PER_RUN_DIR
 from sb3_reinforce.version import __version__
 
-__all__ = ["RESULT_COLUMNS", "ComparisonEvalCallback", "RunSpec", "code_version", "run"]
+__all__ = ["RESULT_COLUMNS", "Checkpoint", "ComparisonEvalCallback", "RunSpec", "code_version", "run"]
 
 #: Columns of ``results.csv``: one row per algorithm, seed and evaluation point.
 RESULT_COLUMNS = [
@@ -83,30 +93,62 @@ class ComparisonEvalCallback(BaseCallback):
     :param eval_env: The evaluation environment (synchronized with a ``VecNormalize`` training env if any)
     :param csv_path: Where the rows are appended
     :param progress: Called with the environment steps done so far after each evaluation (or None)
+    :param checkpoint: Saves the run after each evaluation (or None: no checkpoints)
+    :param resumed: The counters of the checkpoint this run resumes from (or None: a new run, evaluated
+        before training)
     """
 
-    def __init__(self, spec: RunSpec, eval_env: VecEnv, csv_path: Path, progress: Any = None) -> None:
+    def __init__(
+        self,
+        spec: RunSpec,
+        eval_env: VecEnv,
+        csv_path: Path,
+        progress: Any = None,
+        checkpoint: "Checkpoint | None" = None,
+        resumed: dict[str, Any] | None = None,
+    ) -> None:
         super().__init__()
         self.spec = spec
         self.eval_env = eval_env
         self.csv_path = csv_path
         self.progress = progress
+        self.checkpoint = checkpoint
+        self.resumed = resumed
         self.eval_index = 0
         self.next_eval = 0
         self.last_eval_steps = -1
         self.n_episodes = 0
         self.eval_time = 0.0
         self.start_time = 0.0
+        self.train_time_before = 0.0  # training seconds of the runs this one resumes
         self.process = psutil.Process()
         self.peak_rss_mb = 0.0
+        if resumed is not None:
+            self.eval_index = int(resumed["eval_index"])
+            self.next_eval = self.eval_index * spec.eval_freq
+            self.last_eval_steps = int(resumed["steps"])
+            self.n_episodes = int(resumed["episodes"])
+            self.train_time_before = float(resumed["train_time_s"])
+            self.peak_rss_mb = float(resumed["peak_rss_mb"])
 
     def _on_training_start(self) -> None:
         self.start_time = time.perf_counter()
-        self._evaluate()
+        if self.resumed is None:
+            self._evaluate()
 
     def training_time(self) -> float:
-        """Wall-clock seconds of training so far, evaluations excluded."""
-        return time.perf_counter() - self.start_time - self.eval_time
+        """Wall-clock seconds of training so far, evaluations excluded (those before a resume included)."""
+        return self.train_time_before + time.perf_counter() - self.start_time - self.eval_time
+
+    def counters(self) -> dict[str, Any]:
+        """What a resumed run needs to go on counting: the next evaluation, steps, episodes, time, memory."""
+        return dict(
+            eval_index=self.eval_index,
+            steps=self.num_timesteps,
+            episodes=self.n_episodes,
+            train_time_s=self.training_time(),
+            peak_rss_mb=self.peak_rss_mb,
+        )
 
     def _on_step(self) -> bool:
         self.n_episodes += sum(1 for info in self.locals["infos"] if "episode" in info)
@@ -145,8 +187,97 @@ class ComparisonEvalCallback(BaseCallback):
         self.eval_index += 1
         self.last_eval_steps = self.num_timesteps
         self.next_eval = self.eval_index * self.spec.eval_freq
+        if self.checkpoint is not None and self.num_timesteps < self.spec.budget:
+            self.checkpoint.save(self.model, self.counters())
         if self.progress is not None:
             self.progress(self.num_timesteps)
+
+
+#: ``VecNormalize``'s running statistics, saved with a checkpoint.
+_RUNNING_STATISTICS = ("obs_rms", "ret_rms")
+
+
+class Checkpoint:
+    """
+    A run's checkpoint in ``per_run/``: ``<name>.checkpoint.zip`` (``model.save``: weights, optimizer, step count,
+    schedules), ``<name>.checkpoint_vecnormalize.pkl`` (the training env's ``VecNormalize`` statistics, if it
+    has one) and ``<name>.checkpoint.json`` (the run's spec, the callback's counters, the CPU seconds so far and
+    the steps of earlier resumes), written last: a checkpoint without its JSON is incomplete and ignored.
+
+    :param runs_dir: The comparison's ``per_run/`` folder
+    :param spec: The run
+    """
+
+    def __init__(self, runs_dir: Path, spec: RunSpec) -> None:
+        self.spec = spec
+        self.model_path = runs_dir / f"{spec.name}.checkpoint.zip"
+        self.vecnormalize_path = runs_dir / f"{spec.name}.checkpoint_vecnormalize.pkl"
+        self.state_path = runs_dir / f"{spec.name}.checkpoint.json"
+        self.cpu_time_before = 0.0
+        self.resumed_at_steps: list[int] = []
+
+    def save(self, model: BaseAlgorithm, counters: dict[str, Any]) -> None:
+        """Save the model and the counters (the JSON is removed first and written last)."""
+        self.state_path.unlink(missing_ok=True)
+        model.save(self.model_path)
+        vecnormalize = model.get_vec_normalize_env()
+        if vecnormalize is not None:
+            # obs_rms exists only where observations are normalized (norm_obs=False has none)
+            statistics = {name: vecnormalize.__dict__[name] for name in _RUNNING_STATISTICS if name in vecnormalize.__dict__}
+            with self.vecnormalize_path.open("wb") as f:
+                pickle.dump(statistics, f)
+        state = dict(
+            spec=self.spec.__dict__,
+            counters=counters,
+            cpu_time_s=self.cpu_time_s(),
+            resumed_at_steps=self.resumed_at_steps,
+        )
+        self.state_path.write_text(json.dumps(state, indent=2))
+
+    def cpu_time_s(self) -> float:
+        """CPU seconds of the run so far: this process's, plus those of the processes it resumes."""
+        return self.cpu_time_before + sum(psutil.Process().cpu_times()[:2])
+
+    def load_state(self) -> dict[str, Any] | None:
+        """The saved state, or None where there is no complete checkpoint of this very run (other settings)."""
+        if not (self.state_path.exists() and self.model_path.exists()):
+            return None
+        state = json.loads(self.state_path.read_text())
+        return state if state.get("spec") == self.spec.__dict__ else None
+
+    def restore(self, model: BaseAlgorithm, state: dict[str, Any]) -> BaseAlgorithm:
+        """
+        The model of the checkpoint, on ``model``'s training env with its ``VecNormalize`` statistics restored.
+
+        :param model: The freshly built model of the run (its env is reused)
+        :param state: :meth:`load_state`'s result
+        :return: The restored model
+        """
+        env = model.get_env()
+        restored = type(model).load(self.model_path, env=env, device=model.device)
+        vecnormalize = restored.get_vec_normalize_env()
+        if vecnormalize is not None:
+            with self.vecnormalize_path.open("rb") as f:
+                statistics = pickle.load(f)  # written by this run's own process, see save()
+            vecnormalize.__dict__.update(statistics)
+        self.cpu_time_before = float(state["cpu_time_s"])
+        self.resumed_at_steps = [*state["resumed_at_steps"], int(restored.num_timesteps)]
+        return restored
+
+    def delete(self) -> None:
+        """Remove the checkpoint's files (the run is finished)."""
+        for path in (self.state_path, self.model_path, self.vecnormalize_path):
+            path.unlink(missing_ok=True)
+
+
+def _keep_rows_before(csv_path: Path, eval_index: int) -> None:
+    """Drop the CSV rows of evaluations at or after ``eval_index`` (made after the checkpoint a run resumes)."""
+    with csv_path.open(newline="") as f:
+        rows = list(csv.reader(f))
+    column = RESULT_COLUMNS.index("eval_index")
+    kept = [rows[0]] + [row for row in rows[1:] if int(row[column]) < eval_index]
+    with csv_path.open("w", newline="") as f:
+        csv.writer(f).writerows(kept)
 
 
 def code_version() -> dict[str, Any]:
@@ -175,7 +306,8 @@ def run(spec: RunSpec, out_dir: Path, progress: Any = None) -> dict[str, Any]:
     """
     Train and evaluate one run; write ``out_dir/per_run/<algo>_seed<seed>.csv`` (one row per evaluation,
     appended as it goes) and, once finished, ``<algo>_seed<seed>.json`` (the run's summary). A run with a
-    JSON file is finished; anything else is started over.
+    JSON file is finished; one with a checkpoint of the same settings resumes from it (see the module
+    docstring); anything else is started over.
 
     :param spec: The run
     :param out_dir: The comparison's output folder
@@ -187,15 +319,28 @@ def run(spec: RunSpec, out_dir: Path, progress: Any = None) -> dict[str, Any]:
     runs_dir = out_dir / PER_RUN_DIR
     runs_dir.mkdir(parents=True, exist_ok=True)
     csv_path = runs_dir / f"{spec.name}.csv"
-    with csv_path.open("w", newline="") as f:
-        csv.writer(f).writerow(RESULT_COLUMNS)
+    checkpoint = Checkpoint(runs_dir, spec)
+    state = checkpoint.load_state() if csv_path.exists() else None
+    if state is None:
+        with csv_path.open("w", newline="") as f:
+            csv.writer(f).writerow(RESULT_COLUMNS)
 
     with tempfile.TemporaryDirectory(prefix=f"{spec.name}-zoo-") as zoo_folder:
         config = None if spec.config_path is None else Path(spec.config_path)
         built = build_run(spec.algo, spec.env_id, spec.seed, spec.budget, Path(zoo_folder), config)
         model, eval_env = built.model, built.eval_env
-        callback = ComparisonEvalCallback(spec, eval_env, csv_path, progress)
-        model.learn(total_timesteps=spec.budget, callback=[*built.callbacks, callback])
+        resumed = None
+        if state is not None:
+            model = checkpoint.restore(model, state)
+            resumed = state["counters"]
+            _keep_rows_before(csv_path, int(resumed["eval_index"]))
+        callback = ComparisonEvalCallback(spec, eval_env, csv_path, progress, checkpoint, resumed)
+        # Resumed: the steps left, on the restored step count (the schedules go on from where they were)
+        model.learn(
+            total_timesteps=spec.budget - model.num_timesteps,
+            callback=[*built.callbacks, callback],
+            reset_num_timesteps=resumed is None,
+        )
         train_time = callback.training_time()
         if callback.last_eval_steps < model.num_timesteps:
             callback._evaluate()  # the final point, at the end of the budget
@@ -210,8 +355,12 @@ def run(spec: RunSpec, out_dir: Path, progress: Any = None) -> dict[str, Any]:
         train_time_s=round(train_time, 3),
         steps_per_s=round(model.num_timesteps / train_time, 1),
         peak_rss_mb=round(callback.peak_rss_mb, 1),
-        # CPU seconds of this process (imports, training and evaluations): what the run costs on an idle core
-        cpu_time_s=round(sum(psutil.Process().cpu_times()[:2]), 1),
+        # CPU seconds of this process (imports, training and evaluations), plus those of the processes it resumes:
+        # what the run costs on an idle core
+        cpu_time_s=round(checkpoint.cpu_time_s(), 1),
     )
+    if checkpoint.resumed_at_steps:
+        summary["resumed_at_steps"] = checkpoint.resumed_at_steps
     (runs_dir / f"{spec.name}.json").write_text(json.dumps(summary, indent=2))
+    checkpoint.delete()
     return summary

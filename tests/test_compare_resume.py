@@ -1,0 +1,111 @@
+"""A comparison run interrupted after an evaluation resumes from its checkpoint instead of starting over."""
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import torch as th
+
+from sb3_reinforce.compare import runner
+from sb3_reinforce.compare.experiment import build_run
+from sb3_reinforce.compare.report import PER_RUN_DIR
+from sb3_reinforce.compare.runner import RESULT_COLUMNS, Checkpoint, RunSpec
+
+
+class _Stop(Exception):
+    pass
+
+
+def _stop_after(n_evaluations: int) -> Callable[[int], None]:
+    calls = []
+
+    def progress(steps: int) -> None:
+        calls.append(steps)
+        if len(calls) == n_evaluations:
+            raise _Stop(steps)
+
+    return progress
+
+
+def _checkpoint_files(runs_dir: Path, spec: RunSpec) -> list[Path]:
+    return sorted(runs_dir.glob(f"{spec.name}.checkpoint*"))
+
+
+@pytest.mark.parametrize("algo", ["reinforce", "ppo"])
+def test_interrupted_run_resumes_from_its_last_evaluation(tmp_path: Path, algo: str) -> None:
+    spec = RunSpec("CartPole-v1", algo, 3, budget=4000, eval_freq=1000, n_eval_episodes=2)
+    runs_dir = tmp_path / PER_RUN_DIR
+    with pytest.raises(_Stop):
+        runner.run(spec, tmp_path, progress=_stop_after(3))  # stopped right after evaluations 0, 1 and 2
+    state = json.loads((runs_dir / f"{spec.name}.checkpoint.json").read_text())
+    assert state["spec"] == spec.__dict__ and state["counters"]["eval_index"] == 3
+    stopped_at = int(state["counters"]["steps"])
+    assert 2000 <= stopped_at < 3000 and state["cpu_time_s"] > 0
+    before = pd.read_csv(runs_dir / f"{spec.name}.csv")
+    assert list(before["eval_index"]) == [0, 1, 2]
+    # A row written after the checkpoint (a crash between the two) is dropped on resume
+    with (runs_dir / f"{spec.name}.csv").open("a") as f:
+        f.write(",".join(["CartPole-v1", algo, "3", "3", "9999", "1", "1", "1", "0", "1", "0", "1"]) + "\n")
+
+    summary = runner.run(spec, tmp_path)
+    assert summary["resumed_at_steps"] == [stopped_at]
+    assert summary["steps"] >= 4000 and summary["cpu_time_s"] > state["cpu_time_s"]
+    after = pd.read_csv(runs_dir / f"{spec.name}.csv")
+    assert list(after.columns) == RESULT_COLUMNS
+    # 0, 1k, 2k, 3k, 4k, and one at the end where whole episodes ran past the budget
+    assert list(after["eval_index"]) == list(range(len(after))) and len(after) in (5, 6)
+    pd.testing.assert_frame_equal(after.iloc[:3], before)  # the rows before the stop are kept as they were
+    assert list(after["steps"]) == sorted(after["steps"]) and 9999 not in set(after["steps"])
+    assert list(after["wall_time_s"]) == sorted(after["wall_time_s"])  # training time goes on counting
+    assert after["episodes"].iloc[3] > after["episodes"].iloc[2]
+    assert _checkpoint_files(runs_dir, spec) == []  # finished: no checkpoint left
+
+
+def test_checkpoint_restores_weights_optimizer_steps_and_normalization(tmp_path: Path) -> None:
+    # Pendulum-v1's REINFORCE entry normalizes observations and rewards (VecNormalize) and fits its value
+    # baseline with an optimizer of its own: all of it must come back.
+    spec = RunSpec("Pendulum-v1", "reinforce", 0, budget=10_000, eval_freq=500, n_eval_episodes=1)
+    built = build_run("reinforce", "Pendulum-v1", 0, 10_000, tmp_path / "zoo")
+    built.model.learn(1200)
+    checkpoint = Checkpoint(tmp_path, spec)
+    checkpoint.save(
+        built.model, dict(eval_index=2, steps=built.model.num_timesteps, episodes=6, train_time_s=1.0, peak_rss_mb=1.0)
+    )
+
+    fresh = build_run("reinforce", "Pendulum-v1", 0, 10_000, tmp_path / "zoo2")
+    state = checkpoint.load_state()
+    assert state is not None
+    restored = checkpoint.restore(fresh.model, state)
+    assert restored.num_timesteps == built.model.num_timesteps and restored._n_updates == built.model._n_updates
+    for a, b in zip(built.model.policy.state_dict().values(), restored.policy.state_dict().values(), strict=True):
+        assert th.equal(a, b)
+    saved_opt, restored_opt = built.model.policy.optimizer.state_dict(), restored.policy.optimizer.state_dict()
+    assert saved_opt["state"].keys() == restored_opt["state"].keys()
+    for key in saved_opt["state"]:
+        assert th.equal(saved_opt["state"][key]["exp_avg"], restored_opt["state"][key]["exp_avg"])
+    original, loaded = built.model.get_vec_normalize_env(), restored.get_vec_normalize_env()
+    assert original is not None and loaded is not None and loaded is fresh.model.get_vec_normalize_env()
+    np.testing.assert_array_equal(original.obs_rms.mean, loaded.obs_rms.mean)
+    np.testing.assert_array_equal(original.ret_rms.var, loaded.ret_rms.var)
+    # the learning-rate schedule goes on from the restored step count
+    assert restored.lr_schedule(0.5) == built.model.lr_schedule(0.5)
+    assert checkpoint.resumed_at_steps == [built.model.num_timesteps]
+
+
+def test_checkpoint_of_other_settings_or_incomplete_is_ignored(tmp_path: Path) -> None:
+    spec = RunSpec("CartPole-v1", "reinforce", 0, budget=2000, eval_freq=1000, n_eval_episodes=1)
+    with pytest.raises(_Stop):
+        runner.run(spec, tmp_path, progress=_stop_after(2))
+    other = RunSpec("CartPole-v1", "reinforce", 0, budget=3000, eval_freq=1000, n_eval_episodes=1)
+    assert Checkpoint(tmp_path / PER_RUN_DIR, other).load_state() is None  # same files, other settings
+    assert Checkpoint(tmp_path / PER_RUN_DIR, spec).load_state() is not None
+    (tmp_path / PER_RUN_DIR / f"{spec.name}.checkpoint.json").unlink()  # a save that did not finish
+    assert Checkpoint(tmp_path / PER_RUN_DIR, spec).load_state() is None
+    summary = runner.run(spec, tmp_path)  # started over
+    assert "resumed_at_steps" not in summary
+    rows = pd.read_csv(tmp_path / PER_RUN_DIR / f"{spec.name}.csv")  # one run's rows, from step 0
+    assert list(rows["eval_index"]) == list(range(len(rows))) and len(rows) >= 3 and rows["steps"].iloc[0] == 0
+    assert _checkpoint_files(tmp_path / PER_RUN_DIR, spec) == []
