@@ -563,3 +563,14 @@ def test_overview_table_hand_computed(tmp_path: Path, capsys: pytest.CaptureFixt
     assert "summary updated" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         render_main([str(first), "--summary", str(tmp_path / "first" / "summary.md")])  # no markers there
+
+
+def test_seed_curves_of_seeds_stopped_early_are_drawn_one_per_seed(tmp_path: Path) -> None:
+    # seed 1 stopped after 30 episodes: a mean over seeds would end there, so each seed has its own line, no band
+    rows = [dict(seed=0, episode=i, episode_return=-1000.0 * i) for i in range(1, 51)]
+    rows += [dict(seed=1, episode=i, episode_return=-5.0) for i in range(1, 31)]
+    fig = plot_seed_curves(pd.DataFrame(rows), -110.0, tmp_path / "curve.png", "t", window=10)
+    texts = _legend_texts(fig)
+    assert "seed 0 (50 episodes)" in texts and "seed 1 (30 episodes)" in texts and BAND_LABEL not in texts
+    assert fig.axes[0].get_yscale() == "symlog"  # returns down to -50,000 against a threshold of -110
+    assert [len(line.get_xdata()) for line in fig.axes[0].get_lines()[:2]] == [50, 30]

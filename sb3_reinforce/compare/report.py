@@ -209,7 +209,9 @@ def _thousands(x: float, _position: float) -> str:
     return f"{x:,.0f}"
 
 
-def _finish_plot(fig: Figure, ax: Axes, threshold: float | None, xlabel: str, ylabel: str, title: str, path: Path) -> Figure:
+def _finish_plot(
+    fig: Figure, ax: Axes, threshold: float | None, xlabel: str, ylabel: str, title: str, path: Path, band: bool = True
+) -> Figure:
     """
     Draw the solve threshold (if any), name the band in the legend, write the x axis with thousands separators
     (``20,000``, no scientific offset), label, save the PNG and close the figure.
@@ -223,7 +225,7 @@ def _finish_plot(fig: Figure, ax: Axes, threshold: float | None, xlabel: str, yl
     ax.set_ylabel(ylabel)
     ax.set_title(title)
     handles, _ = ax.get_legend_handles_labels()
-    ax.legend(handles=[*handles, Patch(facecolor="gray", alpha=0.2, label=BAND_LABEL)])
+    ax.legend(handles=[*handles, Patch(facecolor="gray", alpha=0.2, label=BAND_LABEL)] if band else handles)
     ax.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
@@ -286,7 +288,9 @@ def seed_table(episodes: pd.DataFrame, threshold: float, window: int = 100) -> p
 def plot_seed_curves(episodes: pd.DataFrame, threshold: float, path: Path, title: str, window: int = 100) -> Figure:
     """
     The mean over seeds of each seed's ``window``-episode moving mean of the training return, with its 95%
-    bootstrap CI (the band, named in the legend), x in episodes, the threshold drawn.
+    bootstrap CI (the band, named in the legend), x in episodes, the threshold drawn. Where the seeds ran
+    different numbers of episodes (a seed stopped early), one line per seed instead, without a band. A
+    symmetric-log y axis where the returns span more than 100 times the threshold.
 
     :param episodes: One row per training episode
     :param threshold: The solve threshold
@@ -295,17 +299,27 @@ def plot_seed_curves(episodes: pd.DataFrame, threshold: float, path: Path, title
     :param window: Moving-mean window, in episodes
     :return: The figure, saved and closed
     """
-    # Up to the episode count that every seed reached (an unfinished run has fewer), so the mean is over all seeds
-    n_max = int(episodes.groupby("seed")["episode"].max().min())
-    curves = np.full((episodes["seed"].nunique(), n_max), np.nan)
-    for i, (_, df) in enumerate(episodes.groupby("seed")):
-        df = df.sort_values("episode")
-        curves[i] = rolling_mean(df["episode_return"], window)[:n_max]
-    step = max(1, n_max // 400)  # a bootstrap every `step` episodes is enough for a plot
-    x = np.arange(1, n_max + 1)[::step]
-    mean, low, high = _mean_ci_band(curves[:, ::step])
+    counts = episodes.groupby("seed")["episode"].max()
     fig, ax = plt.subplots(figsize=(7, 4.5))
-    (line,) = ax.plot(x, mean, label=_seeds_label("seed's agent", curves.shape[0]))
-    ax.fill_between(x, low, high, color=line.get_color(), alpha=0.2)
+    if counts.nunique() > 1:
+        # Seeds that stopped early (sb3-reinforce seed --max-steps): a mean over seeds would end at the shortest
+        # one, so each seed gets its own line, as far as it went.
+        for seed, df in episodes.groupby("seed"):
+            df = df.sort_values("episode")
+            ax.plot(df["episode"], rolling_mean(df["episode_return"], window), label=f"seed {seed} ({len(df):,} episodes)")
+    else:
+        n_max = int(counts.iloc[0])
+        curves = np.full((episodes["seed"].nunique(), n_max), np.nan)
+        for i, (_, df) in enumerate(episodes.groupby("seed")):
+            df = df.sort_values("episode")
+            curves[i] = rolling_mean(df["episode_return"], window)[:n_max]
+        step = max(1, n_max // 400)  # a bootstrap every `step` episodes is enough for a plot
+        x = np.arange(1, n_max + 1)[::step]
+        mean, low, high = _mean_ci_band(curves[:, ::step])
+        (line,) = ax.plot(x, mean, label=_seeds_label("seed's agent", curves.shape[0]))
+        ax.fill_between(x, low, high, color=line.get_color(), alpha=0.2)
+    if episodes["episode_return"].abs().max() > 100 * max(abs(threshold), 1.0):
+        # Returns over orders of magnitude (MountainCar without a time limit: -870,000 to -300)
+        ax.set_yscale("symlog", linthresh=max(abs(threshold), 1.0))
     ylabel = f"training return, {window}-episode moving mean"
-    return _finish_plot(fig, ax, threshold, "training episodes", ylabel, title, path)
+    return _finish_plot(fig, ax, threshold, "training episodes", ylabel, title, path, band=counts.nunique() == 1)
