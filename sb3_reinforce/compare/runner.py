@@ -187,7 +187,7 @@ class ComparisonEvalCallback(BaseCallback):
         self.eval_index += 1
         self.last_eval_steps = self.num_timesteps
         self.next_eval = self.eval_index * self.spec.eval_freq
-        if self.checkpoint is not None and self.num_timesteps < self.spec.budget:
+        if self.checkpoint is not None and 0 < self.num_timesteps < self.spec.budget:
             self.checkpoint.save(self.model, self.counters())
         if self.progress is not None:
             self.progress(self.num_timesteps)
