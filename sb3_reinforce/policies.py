@@ -93,7 +93,11 @@ class ReinforcePolicy(ActorCriticPolicy):
         if normal_init is not None:
             if xavier_init:
                 raise ValueError("policy_kwargs: give either xavier_init=True or normal_init=(std, bias), not both")
-            if len(normal_init) != 2 or not all(math.isfinite(v) for v in normal_init) or not normal_init[0] > 0:
+            try:
+                valid = len(normal_init) == 2 and all(math.isfinite(v) for v in normal_init) and normal_init[0] > 0
+            except TypeError:  # not a pair of numbers
+                valid = False
+            if not valid:
                 raise ValueError(f"policy_kwargs normal_init must be (std, bias), std > 0, both finite; got {normal_init!r}")
             normal_init = (float(normal_init[0]), float(normal_init[1]))
         self.value_head = value_head

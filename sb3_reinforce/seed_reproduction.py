@@ -16,13 +16,16 @@ below -250. Here the registered time limit (LunarLander-v3: 1,000 steps, CartPol
 wall-clock cut, which depends on the machine and would let an unwrapped CartPole balance forever; the -250 cut
 is kept for LunarLander (``--reward-floor``, as a truncation).
 
-A seed can stop before its episodes are done: at ``--max-steps`` training steps, or when one episode outgrows
-the rollout buffer (``--max-episode-steps``, an env without a time limit whose policy never ends it). Its
-finished episodes are kept, ``episodes_seedN.stopped`` says why, and the seed counts as done.
+A seed can stop before its episodes are done: at the first update after ``--max-steps`` training steps, or
+when one episode outgrows the rollout buffer (``--max-episode-steps``, an env without a time limit whose policy
+never ends it). Its finished episodes are kept, ``episodes_seedN.stopped`` (JSON) says why and with which
+settings, and the seed counts as done when the command is run again with the same settings (other settings
+train it again).
 """
 
 import argparse
 import csv
+import json
 import multiprocessing as mp
 import os
 import sys
@@ -43,7 +46,7 @@ from sb3_reinforce.presets import seed_hyperparams
 from sb3_reinforce.reinforce import REINFORCE
 from sb3_reinforce.seed_envs import make_seed_env
 
-__all__ = ["EPISODE_COLUMNS", "RewardFloor", "build_parser", "main", "run_seed"]
+__all__ = ["EPISODE_COLUMNS", "RewardFloor", "build_parser", "main", "run_seed", "stopped_reason"]
 
 EPISODE_COLUMNS = ["env", "seed", "episode", "steps", "wall_time_s", "episode_return", "episode_length", "peak_rss_mb"]
 
@@ -137,7 +140,8 @@ def run_seed(
     :param n_episodes: Number of training episodes
     :param out_dir: Output folder
     :param reward_floor: End an episode when its summed reward falls below this (None: never)
-    :param max_steps: Stop after this many training steps even if fewer episodes are done (None: no cap)
+    :param max_steps: Stop at the first update after this many training steps, even if fewer episodes are done
+        (None: no cap; the episodes of the last batch are finished first)
     :param max_episode_steps: Stop when one episode reaches this many steps without ending (the model's
         ``max_rollout_steps``: the rollout buffer holds the whole episode)
     """
@@ -162,18 +166,38 @@ def run_seed(
     except RolloutLimitError:
         reason = f"episode {recorder.episode + 1} did not end within {max_episode_steps:,} steps (--max-episode-steps)"
     else:
-        reason = "" if recorder.episode >= n_episodes else f"the step cap of {max_steps:,} steps (--max-steps) was reached"
+        reason = (
+            "" if recorder.episode >= n_episodes else f"the step cap of {max_steps or 0:,} steps (--max-steps) was reached"
+        )
     if reason:
-        stopped.write_text(f"seed {seed} stopped after {recorder.episode:,} of {n_episodes:,} episodes: {reason}\n")
+        text = f"seed {seed} stopped after {recorder.episode:,} of {n_episodes:,} episodes: {reason}"
+        settings = _settings(n_episodes, max_steps, max_episode_steps)
+        stopped.write_text(json.dumps(dict(reason=text, settings=settings), indent=2) + "\n")
 
 
 def _stopped_path(path: Path) -> Path:
     return path.with_suffix(".stopped")
 
 
-def _finished(path: Path, n_episodes: int) -> bool:
-    if _stopped_path(path).exists():
-        return True
+def _settings(n_episodes: int, max_steps: int | None, max_episode_steps: int) -> dict[str, Any]:
+    return dict(episodes=n_episodes, max_steps=max_steps, max_episode_steps=max_episode_steps)
+
+
+def stopped_reason(path: Path) -> str:
+    """
+    Why a seed stopped early, from its ``episodes_seedN.stopped`` file.
+
+    :param path: The ``.stopped`` file
+    :return: One line, e.g. "seed 0 stopped after 114 of 500 episodes: the step cap of ... was reached"
+    """
+    return str(json.loads(path.read_text())["reason"])
+
+
+def _finished(path: Path, n_episodes: int, max_steps: int | None = None, max_episode_steps: int = 1_000_000) -> bool:
+    stopped = _stopped_path(path)
+    if stopped.exists():
+        # Stopped early: done for the settings it stopped under, trained again under others
+        return bool(json.loads(stopped.read_text())["settings"] == _settings(n_episodes, max_steps, max_episode_steps))
     if not path.exists():
         return False
     try:
@@ -203,7 +227,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--max-steps",
         type=int,
         default=None,
-        help="stop a seed after this many training steps, its finished episodes kept (default: no cap)",
+        help="stop a seed at its first update after this many training steps, its finished episodes kept (default: no cap)",
     )
     parser.add_argument(
         "--max-episode-steps",
@@ -236,7 +260,11 @@ def main(argv: list[str] | None = None) -> None:
     except gym.error.Error as error:
         parser.error(f"Unknown environment {args.env!r}: {error}")
     args.out.mkdir(parents=True, exist_ok=True)
-    todo = [s for s in range(args.seeds) if not _finished(args.out / f"episodes_seed{s}.csv", args.episodes)]
+    todo = [
+        s
+        for s in range(args.seeds)
+        if not _finished(args.out / f"episodes_seed{s}.csv", args.episodes, args.max_steps, args.max_episode_steps)
+    ]
     jobs = [(args.env, s, args.episodes, args.out, args.reward_floor, args.max_steps, args.max_episode_steps) for s in todo]
     from sb3_reinforce.compare.cli import ignore_sigint, sigterm_as_keyboard_interrupt
     from sb3_reinforce.compare.render import render_seed

@@ -10,8 +10,9 @@ import pytest
 import torch as th
 
 from sb3_reinforce.compare import runner
+from sb3_reinforce.compare.cli import write_outputs
 from sb3_reinforce.compare.experiment import build_run
-from sb3_reinforce.compare.report import PER_RUN_DIR
+from sb3_reinforce.compare.report import PER_RUN_DIR, load_summaries
 from sb3_reinforce.compare.runner import RESULT_COLUMNS, Checkpoint, RunSpec
 
 
@@ -42,6 +43,8 @@ def test_interrupted_run_resumes_from_its_last_evaluation(tmp_path: Path, algo: 
         runner.run(spec, tmp_path, progress=_stop_after(3))  # stopped right after evaluations 0, 1 and 2
     state = json.loads((runs_dir / f"{spec.name}.checkpoint.json").read_text())
     assert state["spec"] == spec.__dict__ and state["counters"]["eval_index"] == 3
+    assert load_summaries(tmp_path) == {}  # a checkpoint is not a finished run: the report skips it
+    assert write_outputs(tmp_path, "CartPole-v1", 475.0) is None
     stopped_at = int(state["counters"]["steps"])
     assert 2000 <= stopped_at < 3000 and state["cpu_time_s"] > 0
     before = pd.read_csv(runs_dir / f"{spec.name}.csv")
@@ -52,7 +55,7 @@ def test_interrupted_run_resumes_from_its_last_evaluation(tmp_path: Path, algo: 
 
     summary = runner.run(spec, tmp_path)
     assert summary["resumed_at_steps"] == [stopped_at]
-    assert summary["steps"] >= 4000 and summary["cpu_time_s"] > state["cpu_time_s"]
+    assert summary["steps"] >= 4000
     after = pd.read_csv(runs_dir / f"{spec.name}.csv")
     assert list(after.columns) == RESULT_COLUMNS
     # 0, 1k, 2k, 3k, 4k, and one at the end where whole episodes ran past the budget
@@ -64,35 +67,46 @@ def test_interrupted_run_resumes_from_its_last_evaluation(tmp_path: Path, algo: 
     assert _checkpoint_files(runs_dir, spec) == []  # finished: no checkpoint left
 
 
-def test_checkpoint_restores_weights_optimizer_steps_and_normalization(tmp_path: Path) -> None:
-    # Pendulum-v1's REINFORCE entry normalizes observations and rewards (VecNormalize) and fits its value
-    # baseline with an optimizer of its own: all of it must come back.
-    spec = RunSpec("Pendulum-v1", "reinforce", 0, budget=10_000, eval_freq=500, n_eval_episodes=1)
-    built = build_run("reinforce", "Pendulum-v1", 0, 10_000, tmp_path / "zoo")
-    built.model.learn(1200)
-    checkpoint = Checkpoint(tmp_path, spec)
-    checkpoint.save(
-        built.model, dict(eval_index=2, steps=built.model.num_timesteps, episodes=6, train_time_s=1.0, peak_rss_mb=1.0)
+def test_checkpoint_restores_weights_optimizers_steps_schedule_and_normalization(tmp_path: Path) -> None:
+    # Normalized observations and rewards (VecNormalize), a value baseline fitted by an optimizer of its own, a
+    # decaying learning rate: all of it must come back.
+    config = tmp_path / "reinforce.yml"
+    config.write_text(
+        "Pendulum-v1:\n  normalize: true\n  n_envs: 2\n  n_timesteps: 10000\n  policy: MlpPolicy\n  baseline: value\n"
+        "  n_value_steps: 3\n  learning_rate: lin_1e-3\n"
     )
+    spec = RunSpec("Pendulum-v1", "reinforce", 0, budget=10_000, eval_freq=500, n_eval_episodes=1, config_path=str(config))
+    built = build_run("reinforce", "Pendulum-v1", 0, 10_000, tmp_path / "zoo", config)
+    built.model.learn(1200)
+    original = built.model
+    assert original.value_optimizer is not None and original._current_progress_remaining < 1
+    checkpoint = Checkpoint(tmp_path, spec, {"learning_rate": "lin_1e-3"})
+    checkpoint.save(original, dict(eval_index=2, steps=original.num_timesteps, episodes=6, train_time_s=1.0, peak_rss_mb=1.0))
 
-    fresh = build_run("reinforce", "Pendulum-v1", 0, 10_000, tmp_path / "zoo2")
+    fresh = build_run("reinforce", "Pendulum-v1", 0, 10_000, tmp_path / "zoo2", config)
     state = checkpoint.load_state()
     assert state is not None
     restored = checkpoint.restore(fresh.model, state)
-    assert restored.num_timesteps == built.model.num_timesteps and restored._n_updates == built.model._n_updates
-    for a, b in zip(built.model.policy.state_dict().values(), restored.policy.state_dict().values(), strict=True):
+    assert restored.num_timesteps == original.num_timesteps and restored._n_updates == original._n_updates
+    assert restored._current_progress_remaining == original._current_progress_remaining
+    assert restored.lr_schedule(0.5) == pytest.approx(0.5e-3)
+    for a, b in zip(original.policy.state_dict().values(), restored.policy.state_dict().values(), strict=True):
         assert th.equal(a, b)
-    saved_opt, restored_opt = built.model.policy.optimizer.state_dict(), restored.policy.optimizer.state_dict()
-    assert saved_opt["state"].keys() == restored_opt["state"].keys()
-    for key in saved_opt["state"]:
-        assert th.equal(saved_opt["state"][key]["exp_avg"], restored_opt["state"][key]["exp_avg"])
-    original, loaded = built.model.get_vec_normalize_env(), restored.get_vec_normalize_env()
-    assert original is not None and loaded is not None and loaded is fresh.model.get_vec_normalize_env()
-    np.testing.assert_array_equal(original.obs_rms.mean, loaded.obs_rms.mean)
-    np.testing.assert_array_equal(original.ret_rms.var, loaded.ret_rms.var)
-    # the learning-rate schedule goes on from the restored step count
-    assert restored.lr_schedule(0.5) == built.model.lr_schedule(0.5)
-    assert checkpoint.resumed_at_steps == [built.model.num_timesteps]
+    for saved_optimizer, restored_optimizer in (
+        (original.policy.optimizer, restored.policy.optimizer),
+        (original.value_optimizer, restored.value_optimizer),
+    ):
+        saved, loaded = saved_optimizer.state_dict(), restored_optimizer.state_dict()
+        assert saved["state"].keys() == loaded["state"].keys() and saved["state"]
+        for key in saved["state"]:
+            assert th.equal(saved["state"][key]["exp_avg"], loaded["state"][key]["exp_avg"])
+    saved_norm, loaded_norm = original.get_vec_normalize_env(), restored.get_vec_normalize_env()
+    assert saved_norm is not None and loaded_norm is not None and loaded_norm is fresh.model.get_vec_normalize_env()
+    np.testing.assert_array_equal(saved_norm.obs_rms.mean, loaded_norm.obs_rms.mean)
+    np.testing.assert_array_equal(saved_norm.ret_rms.var, loaded_norm.ret_rms.var)
+    assert checkpoint.resumed_at_steps == [original.num_timesteps]
+    # the same run with other hyperparameters in its file is not resumed from this checkpoint
+    assert Checkpoint(tmp_path, spec, {"learning_rate": "lin_3e-3"}).load_state() is None
 
 
 def test_checkpoint_of_other_settings_or_incomplete_is_ignored(tmp_path: Path) -> None:
@@ -100,12 +114,27 @@ def test_checkpoint_of_other_settings_or_incomplete_is_ignored(tmp_path: Path) -
     with pytest.raises(_Stop):
         runner.run(spec, tmp_path, progress=_stop_after(2))
     other = RunSpec("CartPole-v1", "reinforce", 0, budget=3000, eval_freq=1000, n_eval_episodes=1)
-    assert Checkpoint(tmp_path / PER_RUN_DIR, other).load_state() is None  # same files, other settings
-    assert Checkpoint(tmp_path / PER_RUN_DIR, spec).load_state() is not None
-    (tmp_path / PER_RUN_DIR / f"{spec.name}.checkpoint.json").unlink()  # a save that did not finish
-    assert Checkpoint(tmp_path / PER_RUN_DIR, spec).load_state() is None
+    state_path = tmp_path / PER_RUN_DIR / f"{spec.name}.checkpoint.json"
+    hyperparams = json.loads(state_path.read_text())["hyperparams"]
+    assert hyperparams["n_timesteps"] and "policy" in hyperparams  # the zoo entry, as the summary records it
+    assert Checkpoint(tmp_path / PER_RUN_DIR, other, hyperparams).load_state() is None  # same files, other settings
+    assert Checkpoint(tmp_path / PER_RUN_DIR, spec, hyperparams).load_state() is not None
+    state_path.write_text("{")  # damaged
+    assert Checkpoint(tmp_path / PER_RUN_DIR, spec, hyperparams).load_state() is None
+    state_path.unlink()  # a save that did not finish
+    assert Checkpoint(tmp_path / PER_RUN_DIR, spec, hyperparams).load_state() is None
     summary = runner.run(spec, tmp_path)  # started over
     assert "resumed_at_steps" not in summary
     rows = pd.read_csv(tmp_path / PER_RUN_DIR / f"{spec.name}.csv")  # one run's rows, from step 0
     assert list(rows["eval_index"]) == list(range(len(rows))) and len(rows) >= 3 and rows["steps"].iloc[0] == 0
     assert _checkpoint_files(tmp_path / PER_RUN_DIR, spec) == []
+
+
+def test_off_policy_runs_are_not_checkpointed(tmp_path: Path) -> None:
+    # model.save leaves the replay buffer out: a resumed DQN would restart on an empty buffer, so it starts over
+    spec = RunSpec("CartPole-v1", "dqn", 0, budget=2000, eval_freq=500, n_eval_episodes=1)
+    with pytest.raises(_Stop):
+        runner.run(spec, tmp_path, progress=_stop_after(3))
+    assert _checkpoint_files(tmp_path / PER_RUN_DIR, spec) == []
+    summary = runner.run(spec, tmp_path)
+    assert "resumed_at_steps" not in summary and summary["steps"] >= 2000

@@ -13,6 +13,7 @@ from gymnasium import spaces
 from sb3_reinforce import REINFORCE, seed_hyperparams
 from sb3_reinforce.seed_envs import OneHotActions, SeedPixels, make_seed_env
 from sb3_reinforce.seed_reproduction import main as seed_main
+from sb3_reinforce.seed_reproduction import stopped_reason
 
 
 class _ImageEnv(gym.Env[np.ndarray, np.ndarray]):
@@ -114,7 +115,7 @@ def test_normal_init_round_trip_and_errors(tmp_path: Path) -> None:
         assert th.equal(a, b)
     with pytest.raises(ValueError, match="not both"):
         REINFORCE("MlpPolicy", "CartPole-v1", policy_kwargs=dict(normal_init=(0.3, 0.1), xavier_init=True))
-    for bad in [(0.0, 0.1), (float("nan"), 0.1), (0.3,)]:
+    for bad in [(0.0, 0.1), (float("nan"), 0.1), (0.3,), 0.3, ("a", "b")]:
         with pytest.raises(ValueError, match="normal_init"):
             REINFORCE("MlpPolicy", "CartPole-v1", policy_kwargs=dict(normal_init=bad))
 
@@ -122,20 +123,27 @@ def test_normal_init_round_trip_and_errors(tmp_path: Path) -> None:
 def test_seed_run_stops_at_the_step_cap_and_counts_as_done(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     args = ["--env", "CartPole-v1", "--episodes", "1000", "--seeds", "1", "--workers", "1", "--max-steps", "100"]
     seed_main([*args, "--out", str(tmp_path)])
-    stopped = (tmp_path / "episodes_seed0.stopped").read_text()
+    stopped = stopped_reason(tmp_path / "episodes_seed0.stopped")
     episodes = pd.read_csv(tmp_path / "episodes.csv")
     assert 0 < len(episodes) < 1000 and episodes["steps"].iloc[-1] >= 100
-    assert f"seed 0 stopped after {len(episodes)} of 1,000 episodes" in stopped and "--max-steps" in stopped
-    assert stopped.strip() in (tmp_path / "summary.md").read_text()
+    assert (
+        stopped
+        == f"seed 0 stopped after {len(episodes)} of 1,000 episodes: the step cap of 100 steps (--max-steps) was reached"
+    )
+    assert f"- {stopped}" in (tmp_path / "summary.md").read_text()
     capsys.readouterr()
-    seed_main([*args, "--out", str(tmp_path)])  # done: skipped, not started over
+    seed_main([*args, "--out", str(tmp_path)])  # done under the same settings: skipped, not started over
     assert "0 seed(s) trained, 1 already done" in capsys.readouterr().out
     assert len(pd.read_csv(tmp_path / "episodes.csv")) == len(episodes)
+    seed_main([*args[:-1], "300", "--out", str(tmp_path)])  # a larger cap: trained again
+    assert "1 seed(s) trained, 0 already done" in capsys.readouterr().out
+    assert pd.read_csv(tmp_path / "episodes.csv")["steps"].iloc[-1] >= 300
 
 
 def test_seed_run_stops_an_episode_that_never_ends(tmp_path: Path) -> None:
     # MountainCar without a time limit: the first episode of a random policy runs far past 300 steps
     args = ["--env", "MountainCar-v0", "--episodes", "3", "--seeds", "1", "--workers", "1", "--max-episode-steps", "300"]
     seed_main([*args, "--out", str(tmp_path)])
-    stopped = (tmp_path / "episodes_seed0.stopped").read_text()
-    assert "stopped after 0 of 3 episodes: episode 1 did not end within 300 steps (--max-episode-steps)" in stopped
+    stopped = stopped_reason(tmp_path / "episodes_seed0.stopped")
+    assert stopped == "seed 0 stopped after 0 of 3 episodes: episode 1 did not end within 300 steps (--max-episode-steps)"
+    assert "No training episode finished." in (tmp_path / "summary.md").read_text()

@@ -15,6 +15,7 @@ from pathlib import Path
 import pandas as pd
 
 from sb3_reinforce.compare.report import PER_RUN_DIR, overview_table, plot_seed_curves, seed_table, to_markdown
+from sb3_reinforce.seed_reproduction import stopped_reason
 from sb3_reinforce.stats import SOLVE_THRESHOLDS
 
 __all__ = ["build_parser", "main", "render", "render_seed", "update_readme", "write_between_markers"]
@@ -45,7 +46,7 @@ def render_seed(out_dir: Path) -> str:
     """
     frames = [pd.read_csv(path) for path in sorted(out_dir.glob("episodes_seed*.csv"))]
     # Seeds that stopped before their episodes were done (sb3-reinforce seed --max-steps/--max-episode-steps)
-    stops = "".join(f"- {path.read_text().strip()}\n" for path in sorted(out_dir.glob("episodes_seed*.stopped")))
+    stops = "".join(f"- {stopped_reason(path)}\n" for path in sorted(out_dir.glob("episodes_seed*.stopped")))
     finished = [f for f in frames if len(f)]
     if not finished:
         markdown = "No training episode finished.\n" + (f"\n{stops}" if stops else "")
@@ -164,7 +165,10 @@ def main(argv: list[str] | None = None) -> None:
         print(f"## {name}\n\n{tables[name.rstrip('/')]}")
     if args.summary is not None:
         comparisons = [Path(name) for name in args.dirs if (Path(name) / PER_RUN_DIR).is_dir()]
-        overview = to_markdown(overview_table(comparisons))
+        try:
+            overview = to_markdown(overview_table(comparisons))
+        except ValueError as error:
+            parser.error(str(error))
         print(f"## Summary\n\n{overview}")
         if not write_between_markers(args.summary, "summary", overview):
             parser.error(f"{args.summary} has no <!-- summary --> and <!-- /summary --> markers")

@@ -58,13 +58,15 @@ def _median_iqr(values: Sequence[float], fmt: str = "{:,.0f}") -> str:
 
 def load_summaries(out_dir: Path) -> dict[tuple[str, int], dict]:
     """
-    The JSON summaries of the finished runs in ``out_dir/runs``.
+    The JSON summaries of the finished runs in ``out_dir/per_run`` (unfinished runs' checkpoints left out).
 
     :param out_dir: A comparison's output folder
     :return: {(algo, seed): summary}
     """
     summaries = {}
     for path in sorted((Path(out_dir) / PER_RUN_DIR).glob("*.json")):
+        if path.name.endswith(".checkpoint.json"):  # an unfinished run's checkpoint (see runner.Checkpoint)
+            continue
         summary = json.loads(path.read_text())
         summaries[(summary["spec"]["algo"], int(summary["spec"]["seed"]))] = summary
     return summaries
@@ -103,6 +105,8 @@ def overview_table(folders: Sequence[Path]) -> pd.DataFrame:
     rows = []
     seen: set[tuple[str, str]] = set()
     for folder in folders:
+        if not (Path(folder) / "results.csv").exists():
+            raise ValueError(f"{folder} has no results.csv: no finished run yet (or not a comparison folder)")
         meta = json.loads((Path(folder) / "comparison.json").read_text())
         env_id, threshold = str(meta["env"]), meta["threshold"]
         results = pd.read_csv(Path(folder) / "results.csv")
@@ -289,8 +293,8 @@ def plot_seed_curves(episodes: pd.DataFrame, threshold: float, path: Path, title
     """
     The mean over seeds of each seed's ``window``-episode moving mean of the training return, with its 95%
     bootstrap CI (the band, named in the legend), x in episodes, the threshold drawn. Where the seeds ran
-    different numbers of episodes (a seed stopped early), one line per seed instead, without a band. A
-    symmetric-log y axis where the returns span more than 100 times the threshold.
+    different numbers of episodes (a seed stopped early, or one still running), one line per seed instead,
+    without a band. A symmetric-log y axis where some return is more than 100 times the threshold in size.
 
     :param episodes: One row per training episode
     :param threshold: The solve threshold

@@ -7,14 +7,19 @@ Each evaluation is appended at once to the run's CSV, so an interrupted run keep
 After each evaluation the run also saves a checkpoint (``<algo>_seed<seed>.checkpoint.zip``: the model with its
 optimizer and step count, ``VecNormalize``'s statistics, and the callback's counters in
 ``.checkpoint.json``). A run interrupted after its first evaluation resumes from its last checkpoint when the
-comparison is run again, so a run longer than a session still finishes. A resumed run keeps its weights,
-optimizer state, step count and learning-rate schedule, but not the episodes that were running, nor the random
-number streams: its curve is not the one an uninterrupted run would have drawn, and its JSON lists the steps it
-resumed at (``resumed_at_steps``). The checkpoint files are deleted once the run is finished.
+comparison is run again with the same settings and hyperparameters, so a run longer than a session still
+finishes. A resumed run keeps its weights, optimizer state, step count and learning-rate schedule; the episodes
+that were running are lost, and the training environments are made again with the run's seed, so its random
+streams restart: its curve is not the one an uninterrupted run would have drawn, and its JSON lists the steps it
+resumed at (``resumed_at_steps``). Off-policy algorithms (SAC, TD3, DQN, ...) are not checkpointed: their
+replay buffer is not in ``model.save``, and an interrupted run of theirs starts over. The checkpoint files are
+deleted once the run is finished.
 """
 
 import csv
+import io
 import json
+import os
 import pickle
 import subprocess
 import tempfile
@@ -29,6 +34,7 @@ import torch as th
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.evaluation import evaluate_policy
+from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecEnv, sync_envs_normalization
 
 from sb3_reinforce.compare.experiment import build_run
@@ -188,7 +194,9 @@ class ComparisonEvalCallback(BaseCallback):
         self.last_eval_steps = self.num_timesteps
         self.next_eval = self.eval_index * self.spec.eval_freq
         if self.checkpoint is not None and 0 < self.num_timesteps < self.spec.budget:
+            save_start = time.perf_counter()
             self.checkpoint.save(self.model, self.counters())
+            self.eval_time += time.perf_counter() - save_start  # not training time either
         if self.progress is not None:
             self.progress(self.num_timesteps)
 
@@ -201,15 +209,19 @@ class Checkpoint:
     """
     A run's checkpoint in ``per_run/``: ``<name>.checkpoint.zip`` (``model.save``: weights, optimizer, step count,
     schedules), ``<name>.checkpoint_vecnormalize.pkl`` (the training env's ``VecNormalize`` statistics, if it
-    has one) and ``<name>.checkpoint.json`` (the run's spec, the callback's counters, the CPU seconds so far and
-    the steps of earlier resumes), written last: a checkpoint without its JSON is incomplete and ignored.
+    has one) and ``<name>.checkpoint.json`` (the run's spec and hyperparameters, the callback's counters, the CPU
+    seconds so far and the steps of earlier resumes). Each file is written whole and then renamed into place, the
+    JSON last: a checkpoint without its JSON is incomplete and ignored.
 
     :param runs_dir: The comparison's ``per_run/`` folder
     :param spec: The run
+    :param hyperparams: The run's zoo entry, as recorded in its summary (a checkpoint made with other values
+        is not resumed)
     """
 
-    def __init__(self, runs_dir: Path, spec: RunSpec) -> None:
+    def __init__(self, runs_dir: Path, spec: RunSpec, hyperparams: dict[str, str]) -> None:
         self.spec = spec
+        self.hyperparams = hyperparams
         self.model_path = runs_dir / f"{spec.name}.checkpoint.zip"
         self.vecnormalize_path = runs_dir / f"{spec.name}.checkpoint_vecnormalize.pkl"
         self.state_path = runs_dir / f"{spec.name}.checkpoint.json"
@@ -219,31 +231,41 @@ class Checkpoint:
     def save(self, model: BaseAlgorithm, counters: dict[str, Any]) -> None:
         """Save the model and the counters (the JSON is removed first and written last)."""
         self.state_path.unlink(missing_ok=True)
-        model.save(self.model_path)
+        temporary_model = self.model_path.with_suffix(".tmp.zip")
+        model.save(temporary_model)
+        os.replace(temporary_model, self.model_path)
         vecnormalize = model.get_vec_normalize_env()
         if vecnormalize is not None:
             # obs_rms exists only where observations are normalized (norm_obs=False has none)
             statistics = {name: vecnormalize.__dict__[name] for name in _RUNNING_STATISTICS if name in vecnormalize.__dict__}
-            with self.vecnormalize_path.open("wb") as f:
-                pickle.dump(statistics, f)
+            _write_replacing(self.vecnormalize_path, pickle.dumps(statistics))
         state = dict(
             spec=self.spec.__dict__,
+            hyperparams=self.hyperparams,
             counters=counters,
             cpu_time_s=self.cpu_time_s(),
             resumed_at_steps=self.resumed_at_steps,
         )
-        self.state_path.write_text(json.dumps(state, indent=2))
+        _write_replacing(self.state_path, json.dumps(state, indent=2).encode())
 
     def cpu_time_s(self) -> float:
         """CPU seconds of the run so far: this process's, plus those of the processes it resumes."""
         return self.cpu_time_before + sum(psutil.Process().cpu_times()[:2])
 
     def load_state(self) -> dict[str, Any] | None:
-        """The saved state, or None where there is no complete checkpoint of this very run (other settings)."""
+        """
+        The saved state, or None where there is no complete checkpoint of this very run (other settings or
+        hyperparameters, or a damaged file).
+        """
         if not (self.state_path.exists() and self.model_path.exists()):
             return None
-        state = json.loads(self.state_path.read_text())
-        return state if state.get("spec") == self.spec.__dict__ else None
+        try:
+            state = json.loads(self.state_path.read_text())
+        except json.JSONDecodeError:
+            return None
+        # A checkpoint written before the hyperparameters were recorded in it is taken as matching them
+        same_run = state.get("spec") == self.spec.__dict__ and state.get("hyperparams", self.hyperparams) == self.hyperparams
+        return state if same_run else None
 
     def restore(self, model: BaseAlgorithm, state: dict[str, Any]) -> BaseAlgorithm:
         """
@@ -270,14 +292,22 @@ class Checkpoint:
             path.unlink(missing_ok=True)
 
 
+def _write_replacing(path: Path, data: bytes) -> None:
+    """Write ``path`` whole, then rename it into place: an interruption leaves the old file or the new one."""
+    temporary = path.with_name(path.name + ".tmp")
+    temporary.write_bytes(data)
+    os.replace(temporary, path)
+
+
 def _keep_rows_before(csv_path: Path, eval_index: int) -> None:
     """Drop the CSV rows of evaluations at or after ``eval_index`` (made after the checkpoint a run resumes)."""
     with csv_path.open(newline="") as f:
         rows = list(csv.reader(f))
     column = RESULT_COLUMNS.index("eval_index")
     kept = [rows[0]] + [row for row in rows[1:] if int(row[column]) < eval_index]
-    with csv_path.open("w", newline="") as f:
-        csv.writer(f).writerows(kept)
+    buffer = io.StringIO()
+    csv.writer(buffer).writerows(kept)
+    _write_replacing(csv_path, buffer.getvalue().encode())
 
 
 def code_version() -> dict[str, Any]:
@@ -319,21 +349,23 @@ def run(spec: RunSpec, out_dir: Path, progress: Any = None) -> dict[str, Any]:
     runs_dir = out_dir / PER_RUN_DIR
     runs_dir.mkdir(parents=True, exist_ok=True)
     csv_path = runs_dir / f"{spec.name}.csv"
-    checkpoint = Checkpoint(runs_dir, spec)
-    state = checkpoint.load_state() if csv_path.exists() else None
-    if state is None:
-        with csv_path.open("w", newline="") as f:
-            csv.writer(f).writerow(RESULT_COLUMNS)
 
     with tempfile.TemporaryDirectory(prefix=f"{spec.name}-zoo-") as zoo_folder:
         config = None if spec.config_path is None else Path(spec.config_path)
         built = build_run(spec.algo, spec.env_id, spec.seed, spec.budget, Path(zoo_folder), config)
         model, eval_env = built.model, built.eval_env
+        hyperparams = {key: str(value) for key, value in built.entry.hyperparams.items()}
+        # Off-policy runs are not checkpointed: model.save leaves their replay buffer out
+        checkpoint = None if isinstance(model, OffPolicyAlgorithm) else Checkpoint(runs_dir, spec, hyperparams)
+        state = checkpoint.load_state() if checkpoint is not None and csv_path.exists() else None
         resumed = None
-        if state is not None:
+        if checkpoint is not None and state is not None:
             model = checkpoint.restore(model, state)
             resumed = state["counters"]
             _keep_rows_before(csv_path, int(resumed["eval_index"]))
+        else:
+            with csv_path.open("w", newline="") as f:
+                csv.writer(f).writerow(RESULT_COLUMNS)
         callback = ComparisonEvalCallback(spec, eval_env, csv_path, progress, checkpoint, resumed)
         # Resumed: the steps left, on the restored step count (the schedules go on from where they were)
         model.learn(
@@ -350,17 +382,18 @@ def run(spec: RunSpec, out_dir: Path, progress: Any = None) -> dict[str, Any]:
         spec=spec.__dict__,
         code_version=version,
         hyperparams_source=str(built.entry.source),
-        hyperparams={key: str(value) for key, value in built.entry.hyperparams.items()},
+        hyperparams=hyperparams,
         steps=int(model.num_timesteps),
         train_time_s=round(train_time, 3),
         steps_per_s=round(model.num_timesteps / train_time, 1),
         peak_rss_mb=round(callback.peak_rss_mb, 1),
         # CPU seconds of this process (imports, training and evaluations), plus those of the processes it resumes:
         # what the run costs on an idle core
-        cpu_time_s=round(checkpoint.cpu_time_s(), 1),
+        cpu_time_s=round(sum(psutil.Process().cpu_times()[:2]) if checkpoint is None else checkpoint.cpu_time_s(), 1),
     )
-    if checkpoint.resumed_at_steps:
+    if checkpoint is not None and checkpoint.resumed_at_steps:
         summary["resumed_at_steps"] = checkpoint.resumed_at_steps
     (runs_dir / f"{spec.name}.json").write_text(json.dumps(summary, indent=2))
-    checkpoint.delete()
+    if checkpoint is not None:
+        checkpoint.delete()
     return summary
