@@ -150,7 +150,7 @@ def _wrappers(env: object) -> list[str]:
 def test_compare_builds_the_agent_zoo_train_builds(tmp_path: Path) -> None:
     # The same entry and seed through `sb3-reinforce-zoo train` and through compare's build: the same
     # hyperparameters, wrapper stack, first actions, and weights after a few updates (Pendulum-v1: normalization,
-    # 4 envs, policy_kwargs; REINFORCE makes one update per 8 episodes of 200 steps).
+    # 8 envs, gSDE, value steps, policy_kwargs; REINFORCE makes one update per 8 episodes of 200 steps).
     import torch as th
     import yaml
 

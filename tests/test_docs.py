@@ -31,3 +31,21 @@ def test_examples_run(page: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatc
         code = compile(block, f"{page.relative_to(REPO)} [python block {number}]", "exec")
         exec(code, namespace)
     assert os.getcwd() == str(tmp_path)
+
+
+#: The README's command that writes its one-screen summary (the comparison folders, in the order of the rows)
+SUMMARY_COMMAND = re.compile(r"`sb3-reinforce report ((?:benchmarks/results/\S+ )+)--summary README\.md`")
+
+
+def test_readme_summary_is_the_committed_results(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The README's results table is what `report --summary` makes of the committed folders, so it cannot go stale
+    from sb3_reinforce.compare.report import overview_table, to_markdown
+
+    readme = (REPO / "README.md").read_text()
+    command = SUMMARY_COMMAND.search(readme)
+    assert command is not None, "the README names the command that writes its summary"
+    monkeypatch.chdir(REPO)  # the folders as the README names them, relative to the repository root
+    folders = [Path(name) for name in command.group(1).split()]
+    block = re.search(r"<!-- summary -->\n(.*?)<!-- /summary -->", readme, re.DOTALL)
+    assert block is not None
+    assert block.group(1) == to_markdown(overview_table(folders))

@@ -86,9 +86,9 @@ def _seed_range(seeds: Sequence[int]) -> str:
 
 
 def _steps_short(steps: float) -> str:
-    """``1M``, ``500k``, ``100k`` (a budget, rounded to 1,000 steps)."""
-    thousands = round(steps / 1000)
-    return f"{thousands / 1000:g}M" if thousands >= 1000 else f"{thousands}k"
+    """A budget to two significant digits: ``1M`` (for 1,015,808 steps: a run ends past its budget), ``500k``."""
+    rounded = float(f"{steps:.2g}")
+    return f"{rounded / 1e6:g}M" if rounded >= 1e6 else f"{rounded / 1e3:g}k"
 
 
 def overview_table(folders: Sequence[Path]) -> pd.DataFrame:
