@@ -100,7 +100,7 @@ def write_between_markers(path: Path, marker: str, text: str) -> bool:
     """
     content = path.read_text()
     pattern = re.compile(rf"(<!-- {re.escape(marker)} -->\n).*?(<!-- /{re.escape(marker)} -->)", re.DOTALL)
-    content, count = pattern.subn(lambda m: m.group(1) + text + m.group(2), content)
+    content, count = pattern.subn(lambda m: m.group(1) + text + m.group(2), content)  # text taken as is, no escapes
     if count:
         path.write_text(content)
     return bool(count)
@@ -114,15 +114,7 @@ def update_readme(readme: Path, tables: dict[str, str]) -> list[str]:
     :param tables: {DIR as written in the markers: markdown table}
     :return: The folders whose markers were found and updated
     """
-    text = readme.read_text()
-    updated = []
-    for name, table in tables.items():
-        pattern = re.compile(rf"(<!-- results:{re.escape(name)} -->\n).*?(<!-- /results:{re.escape(name)} -->)", re.DOTALL)
-        text, count = pattern.subn(lambda m, t=table: m.group(1) + t + m.group(2), text)  # type: ignore[misc]
-        if count:
-            updated.append(name)
-    readme.write_text(text)
-    return updated
+    return [name for name, table in tables.items() if write_between_markers(readme, f"results:{name}", table)]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -72,6 +72,23 @@ def load_summaries(out_dir: Path) -> dict[tuple[str, int], dict]:
     return summaries
 
 
+def _per_seed(algo_df: pd.DataFrame) -> tuple[list[pd.DataFrame], list[pd.DataFrame]]:
+    """
+    One algorithm's evaluations, one frame per seed in evaluation order, and the same from the first evaluation
+    after training started: reaching the threshold counts from there, as an untrained deterministic policy can
+    score high by chance (PPO's initial policy balances CartPole on some seeds).
+    """
+    per_seed = [seed_df.sort_values("eval_index") for _, seed_df in algo_df.groupby("seed")]
+    return per_seed, [df[df["eval_index"] > 0] for df in per_seed]
+
+
+def _reach(trained: Sequence[pd.DataFrame], threshold: float) -> tuple[list[float], list[float]]:
+    """Each seed's steps and training seconds to its first evaluation at or above ``threshold`` (inf: never)."""
+    steps = [first_crossing(df["steps"], df["mean_return"], threshold) for df in trained]
+    seconds = [first_crossing(df["wall_time_s"], df["mean_return"], threshold) for df in trained]
+    return steps, seconds
+
+
 def _finals(per_seed: Sequence[pd.DataFrame], column: str) -> list[float]:
     """Each seed's last evaluation (its final score)."""
     return [float(df[column].iloc[-1]) for df in per_seed]
@@ -114,16 +131,14 @@ def overview_table(folders: Sequence[Path]) -> pd.DataFrame:
             if (env_id, str(algo)) in seen:
                 continue
             seen.add((env_id, str(algo)))
-            per_seed = [seed_df.sort_values("eval_index") for _, seed_df in algo_df.groupby("seed")]
-            trained = [df[df["eval_index"] > 0] for df in per_seed]
+            per_seed, trained = _per_seed(algo_df)
             row = {
                 "env (threshold)": env_id if threshold is None else f"{env_id} ({threshold:g})",
                 "algorithm": _ALGO_NAMES.get(str(algo), str(algo).upper()),
                 "budget": _steps_short(float(np.median([df["steps"].iloc[-1] for df in per_seed]))),
             }
             if threshold is not None:
-                steps_to = [first_crossing(df["steps"], df["mean_return"], threshold) for df in trained]
-                seconds_to = [first_crossing(df["wall_time_s"], df["mean_return"], threshold) for df in trained]
+                steps_to, seconds_to = _reach(trained, threshold)
                 median_steps, median_seconds = (quantile_with_inf(v, 0.5) for v in (steps_to, seconds_to))
                 seeds = _seed_range([int(s) for s in algo_df["seed"].unique()])
                 row["seeds reaching"] = f"{int(np.isfinite(steps_to).sum())}/{len(per_seed)} (seeds {seeds})"
@@ -148,10 +163,7 @@ def summary_table(results: pd.DataFrame, summaries: dict[tuple[str, int], dict],
     """
     rows = []
     for algo, algo_df in results.groupby("algo", sort=False):
-        per_seed = [seed_df.sort_values("eval_index") for _, seed_df in algo_df.groupby("seed")]
-        # Reaching the threshold counts from the first evaluation after training started: an untrained
-        # deterministic policy can score high by chance (PPO's initial policy balances CartPole on some seeds).
-        trained = [df[df["eval_index"] > 0] for df in per_seed]
+        per_seed, trained = _per_seed(algo_df)
         finals = _finals(per_seed, "mean_return")
         low, high = bootstrap_ci(finals, iqm)
         row = {
@@ -163,12 +175,9 @@ def summary_table(results: pd.DataFrame, summaries: dict[tuple[str, int], dict],
         if "mean_return_stochastic" in algo_df:
             row["final sampled-action score, IQM"] = f"{iqm(_finals(per_seed, 'mean_return_stochastic')):.1f}"
         if threshold is not None:
-            row[f"steps to {threshold:g}, median [IQR]"] = _median_iqr(
-                [first_crossing(df["steps"], df["mean_return"], threshold) for df in trained]
-            )
-            row[f"seconds to {threshold:g}, median [IQR]"] = _median_iqr(
-                [first_crossing(df["wall_time_s"], df["mean_return"], threshold) for df in trained], "{:,.1f}"
-            )
+            steps_to, seconds_to = _reach(trained, threshold)
+            row[f"steps to {threshold:g}, median [IQR]"] = _median_iqr(steps_to)
+            row[f"seconds to {threshold:g}, median [IQR]"] = _median_iqr(seconds_to, "{:,.1f}")
         seeds = [int(seed) for seed in algo_df["seed"].unique()]
         sps = [summaries[(str(algo), s)]["steps_per_s"] for s in seeds if (str(algo), s) in summaries]
         rss = [summaries[(str(algo), s)]["peak_rss_mb"] for s in seeds if (str(algo), s) in summaries]
