@@ -199,6 +199,24 @@ def test_config_entry_builds_and_trains(tmp_path: Path, config: str, env_id: str
         assert {k: model.policy_kwargs[k] for k in policy_kwargs} == policy_kwargs
 
 
+#: The verified configuration behind each zoo entry (benchmarks/configs/, run on seeds 1000-1009 by
+#: ``sb3-reinforce compare``): the entry must be that file's, key for key, or its results say nothing about it.
+VERIFIED_CONFIGS = {
+    "LunarLander-v3": "reinforce_lunarlander_value20.yml",
+    "LunarLanderContinuous-v3": "reinforce_llc_value20.yml",
+    "Pendulum-v1": "reinforce_pendulum_gsde.yml",
+    "MountainCar-v0": "reinforce_mountaincar_value20.yml",
+}
+
+
+@pytest.mark.parametrize("env_id", sorted(VERIFIED_CONFIGS))
+def test_zoo_entry_is_the_verified_config(env_id: str) -> None:
+    verified = REPO / "benchmarks" / "configs" / VERIFIED_CONFIGS[env_id]
+    entry = yaml.load(CONFIGS["reinforce"].read_text(), Loader=yaml.UnsafeLoader)[env_id]
+    assert entry == yaml.load(verified.read_text(), Loader=yaml.UnsafeLoader)[env_id]
+    assert f"benchmarks/configs/{verified.name}" in CONFIGS["reinforce"].read_text()
+
+
 @pytest.mark.parametrize("env_id", sorted(yaml.safe_load(CONFIGS["reinforce_seed"].read_text())))
 def test_seed_config_is_the_seed_preset(env_id: str) -> None:
     entry = yaml.safe_load(CONFIGS["reinforce_seed"].read_text())[env_id]
