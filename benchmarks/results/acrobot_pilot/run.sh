@@ -1,12 +1,3 @@
 #!/usr/bin/env bash
-# Acrobot-v1 pilot (issue #13): configs of benchmarks/configs/acrobot_pilot/ on tuning seeds from
-# FIRST_SEED on, at the full 1M budget; finished runs are skipped when
-# run again.  Usage: run.sh FIRST_SEED SEEDS CONFIG...
-cd "$(dirname "$0")/../../.." || exit 1
-first=$1 seeds=$2; shift 2
-for name in "$@"; do
-    echo "\$ sb3-reinforce compare --env Acrobot-v1 --algos reinforce --seeds $seeds --first-seed $first --budget 1000000 --reinforce-config benchmarks/configs/acrobot_pilot/$name.yml --out benchmarks/results/acrobot_pilot/$name --workers 1 --no-progress"
-    sb3-reinforce compare --env Acrobot-v1 --algos reinforce --seeds "$seeds" --first-seed "$first" --budget 1000000 \
-        --reinforce-config "benchmarks/configs/acrobot_pilot/$name.yml" \
-        --out "benchmarks/results/acrobot_pilot/$name" --workers 1 --no-progress
-done
+# Acrobot-v1 pilot (issue #13). Usage: run.sh FIRST_SEED SEEDS CONFIG... (see benchmarks/run_pilot.sh)
+exec "$(dirname "$0")/../../run_pilot.sh" Acrobot-v1 acrobot_pilot "$@"
