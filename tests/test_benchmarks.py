@@ -137,3 +137,14 @@ def test_tune_reruns_interrupted_trials(tmp_path: Path) -> None:
     trials = optuna.load_study(study_name="s", storage=storage).trials
     assert [t.state.name for t in trials] == ["FAIL", "COMPLETE"]
     assert trials[1].params == params and trials[1].user_attrs["rerun_of"] == 0
+
+
+def test_pilot_scores_of_committed_runs() -> None:
+    # The figures the Acrobot pilot's README quotes, recomputed from its committed results
+    scores = load("pilot_scores").run_scores(
+        BENCHMARKS / "results" / "acrobot_pilot" / "c_value20_lin3e-3_8env", -100, 800_000
+    )
+    by_seed = scores.set_index("seed")
+    assert by_seed.loc[100, "first >= threshold"] == 50_000 and by_seed.loc[101, "first >= threshold"] == "never"
+    assert by_seed.loc[100, "last 5"] == -77.6 and by_seed.loc[101, "final"] == -500.0
+    assert list(scores["evals from 800,000 >= threshold"]) == ["6/6", "0/5"]

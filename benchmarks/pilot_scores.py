@@ -1,0 +1,58 @@
+"""
+Per-run scores of comparison folders, as the pilots' READMEs and docs/results.md quote them: for each run, the
+first evaluation at or above the threshold (counted after training started, as ``sb3-reinforce report``), the
+mean of the last 5 evaluations (the pilots' tuning score), the final evaluation (deterministic and sampled
+actions), the best one, and how many evaluations from ``--from-steps`` on are at or above the threshold.
+
+    python benchmarks/pilot_scores.py benchmarks/results/mountaincar_pilot/* --threshold -110
+    python benchmarks/pilot_scores.py benchmarks/results/verify_acrobot --threshold -100
+"""
+
+import argparse
+from pathlib import Path
+
+import pandas as pd
+
+
+def run_scores(folder: Path, threshold: float, from_steps: int) -> pd.DataFrame:
+    """One row per (algorithm, seed) of a comparison folder."""
+    rows = []
+    for (algo, seed), run in pd.read_csv(folder / "results.csv").groupby(["algo", "seed"], sort=False):
+        run = run.sort_values("eval_index")
+        trained = run[run["eval_index"] > 0]
+        reached = trained[trained["mean_return"] >= threshold]
+        late = run[run["steps"] >= from_steps]
+        rows.append(
+            {
+                "folder": folder.name,
+                "algo": algo,
+                "seed": seed,
+                "steps": int(run["steps"].iloc[-1]),
+                "first >= threshold": int(reached["steps"].iloc[0]) if len(reached) else "never",
+                "last 5": round(run["mean_return"].iloc[-5:].mean(), 1),
+                "final": round(run["mean_return"].iloc[-1], 1),
+                "final sampled": round(run["mean_return_stochastic"].iloc[-1], 1),
+                "best": round(run["mean_return"].max(), 1),
+                f"evals from {from_steps:,} >= threshold": f"{(late['mean_return'] >= threshold).sum()}/{len(late)}",
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
+    parser.add_argument("folders", nargs="+", type=Path, help="comparison folders (with results.csv)")
+    parser.add_argument("--threshold", type=float, required=True, help="the env's solve threshold")
+    parser.add_argument("--from-steps", type=int, default=800_000, help="count late evaluations from here (default: 800,000)")
+    args = parser.parse_args()
+    table = pd.concat(
+        [run_scores(folder, args.threshold, args.from_steps) for folder in args.folders if (folder / "results.csv").is_file()]
+    )
+    with pd.option_context("display.width", 250, "display.max_columns", None, "display.max_rows", None):
+        print(table.to_string(index=False))
+        last5 = table.groupby(["folder", "algo"], sort=False)["last 5"].mean().round(1)
+        print("\nmean of the runs' last-5 scores:\n" + last5.to_string())
+
+
+if __name__ == "__main__":
+    main()
