@@ -33,6 +33,7 @@ import pandas as pd
 import yaml
 
 from sb3_reinforce.buffers import RolloutLimitError
+from sb3_reinforce.compare.cli import runs_to_do
 from sb3_reinforce.compare.report import PER_RUN_DIR
 from sb3_reinforce.compare.runner import RunSpec, run
 from sb3_reinforce.reinforce import NonFiniteError
@@ -54,7 +55,9 @@ def build_objective(args: argparse.Namespace, base: dict[str, Any]) -> Any:
     def objective(trial: optuna.Trial) -> float:
         trial.set_user_attr("worker", f"{socket.gethostname()}:{os.getpid()}")
         params = suggest_reinforce_params(trial)
-        trial_dir = args.study_dir / "trials" / f"{trial.number:03d}"
+        # A rerun of an interrupted trial goes on in its folder: finished seeds are kept, a checkpointed one resumes
+        folder_number = trial.user_attrs.get("rerun_of", trial.number)
+        trial_dir = args.study_dir / "trials" / f"{folder_number:03d}"
         trial_dir.mkdir(parents=True, exist_ok=True)
         config_path = trial_dir / "config.yml"
         entry = trial_entry(base, params, args.budget)
@@ -63,7 +66,8 @@ def build_objective(args: argparse.Namespace, base: dict[str, Any]) -> Any:
         for index, seed in enumerate(args.seeds):
             spec = RunSpec(args.env, "reinforce", seed, args.budget, args.eval_freq, args.eval_episodes, str(config_path))
             try:
-                run(spec, trial_dir)
+                if runs_to_do([spec], trial_dir):  # not finished yet
+                    run(spec, trial_dir)
             except (NonFiniteError, RolloutLimitError) as error:
                 raise optuna.TrialPruned(f"seed {seed}: {error}") from error
             scores.append(score_run(trial_dir / PER_RUN_DIR / f"{spec.name}.csv", args.score_last))
@@ -94,7 +98,8 @@ def rerun_interrupted(study: optuna.Study) -> None:
     """Mark the study's RUNNING trials (their workers were stopped) failed, and queue their parameters again."""
     for trial in study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.RUNNING,)):
         study._storage.set_trial_state_values(trial._trial_id, state=optuna.trial.TrialState.FAIL)
-        study.enqueue_trial(dict(trial.params), user_attrs={"rerun_of": trial.number})
+        first = trial.user_attrs.get("rerun_of", trial.number)  # a rerun's rerun goes on in the first one's folder
+        study.enqueue_trial(dict(trial.params), user_attrs={"rerun_of": first})
         print(f"Trial {trial.number} was interrupted: queued again")
 
 
@@ -112,7 +117,13 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--score-last", type=int, default=5, help="evaluations averaged per seed (default: 5)")
     parser.add_argument("--max-trials", type=int, default=30, help="finished trials (complete or pruned) in the study")
     parser.add_argument("--fixed", type=Path, default=None, help="yml of search parameters held fixed (PartialFixedSampler)")
-    parser.add_argument("--enqueue", type=Path, default=None, help="yml list of parameter sets tried first (once per study)")
+    parser.add_argument(
+        "--enqueue",
+        type=Path,
+        nargs="+",
+        default=[],
+        help="yml lists of parameter sets tried before the sampler's (each file once per study, in order)",
+    )
     parser.add_argument("--sampler-seed", type=int, default=None)
     parser.add_argument(
         "--rerun-interrupted",
@@ -141,10 +152,14 @@ def main(argv: list[str] | None = None) -> None:
         direction="maximize",
         load_if_exists=True,
     )
-    if args.enqueue is not None and not study.user_attrs.get("enqueued"):
-        study.set_user_attr("enqueued", True)
-        for params in yaml.safe_load(args.enqueue.read_text()):
-            study.enqueue_trial(params, skip_if_exists=True)
+    # Studies from before several files were allowed recorded only that their one file (enqueue.yml) was queued
+    enqueued_files = study.user_attrs.get("enqueued_files", ["enqueue.yml"] if study.user_attrs.get("enqueued") else [])
+    for path in args.enqueue:
+        if path.name not in enqueued_files:
+            for params in yaml.safe_load(path.read_text()):
+                study.enqueue_trial(params, skip_if_exists=True)
+            enqueued_files = [*enqueued_files, path.name]
+            study.set_user_attr("enqueued_files", enqueued_files)
     if args.rerun_interrupted:
         rerun_interrupted(study)
     states = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)

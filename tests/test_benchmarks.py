@@ -8,6 +8,7 @@ from pathlib import Path
 from types import ModuleType
 
 import torch as th
+import yaml
 
 BENCHMARKS = Path(__file__).parent.parent / "benchmarks"
 
@@ -130,13 +131,45 @@ def test_tune_reruns_interrupted_trials(tmp_path: Path) -> None:
     study.enqueue_trial({**fixed, "normalize_returns": True})
     interrupted = study.ask()  # a worker that was stopped mid-trial leaves it RUNNING
     params = tune.suggest_reinforce_params(interrupted)
-    args = ["--env", "CartPole-v1", "--base-config", str(Path(__file__).parents[1] / "zoo_configs" / "reinforce.yml")]
+    # ... after finishing its first seed, in its folder
+    base_config = Path(__file__).parents[1] / "zoo_configs" / "reinforce.yml"
+    trial_dir = study_dir / "trials" / "000"
+    trial_dir.mkdir(parents=True)
+    config = trial_dir / "config.yml"
+    base = yaml.load(base_config.read_text(), Loader=yaml.UnsafeLoader)["CartPole-v1"]
+    config.write_text(yaml.safe_dump({"CartPole-v1": tune.trial_entry(base, params, 400)}, sort_keys=True))
+    tune.run(tune.RunSpec("CartPole-v1", "reinforce", 100, 400, 200, 1, str(config)), trial_dir)
+    first_seed = (trial_dir / "per_run" / "reinforce_seed100.json").read_text()
+    args = ["--env", "CartPole-v1", "--base-config", str(base_config)]
     args += ["--study-dir", str(study_dir), "--study-name", "s", "--budget", "400", "--eval-freq", "200"]
     args += ["--eval-episodes", "1", "--score-last", "1", "--max-trials", "1", "--rerun-interrupted"]
     tune.main(args)
     trials = optuna.load_study(study_name="s", storage=storage).trials
     assert [t.state.name for t in trials] == ["FAIL", "COMPLETE"]
     assert trials[1].params == params and trials[1].user_attrs["rerun_of"] == 0
+    # The rerun went on in the interrupted trial's folder: the finished seed was kept, the other one trained
+    assert (trial_dir / "per_run" / "reinforce_seed100.json").read_text() == first_seed
+    assert (trial_dir / "per_run" / "reinforce_seed101.json").exists() and not (study_dir / "trials" / "001").exists()
+
+
+def test_tune_enqueues_each_file_once(tmp_path: Path) -> None:
+    # A resumed study may queue a second file of parameter sets; a file already queued is not queued again
+    import optuna
+
+    tune = load("tune")
+    for name, learning_rate in (("first.yml", 0.001), ("second.yml", 0.002)):
+        (tmp_path / name).write_text(f"- {{learning_rate: {learning_rate}}}\n")
+    study_dir = tmp_path / "study"
+    args = ["--env", "CartPole-v1", "--base-config", str(Path(__file__).parents[1] / "zoo_configs" / "reinforce.yml")]
+    args += ["--study-dir", str(study_dir), "--study-name", "s", "--budget", "200", "--eval-freq", "200"]
+    args += ["--eval-episodes", "1", "--score-last", "1", "--max-trials", "0", "--enqueue", str(tmp_path / "first.yml")]
+    tune.main(args)  # max-trials 0: queues, trains nothing
+    tune.main([*args, str(tmp_path / "second.yml")])
+    tune.main([*args, str(tmp_path / "second.yml")])
+    storage = optuna.storages.JournalStorage(optuna.storages.journal.JournalFileBackend(str(study_dir / "study.log")))
+    study = optuna.load_study(study_name="s", storage=storage)
+    queued = [t.system_attrs["fixed_params"]["learning_rate"] for t in study.trials]
+    assert queued == [0.001, 0.002] and study.user_attrs["enqueued_files"] == ["first.yml", "second.yml"]
 
 
 def test_pilot_scores_of_committed_runs() -> None:

@@ -16,7 +16,7 @@ from matplotlib.figure import Figure
 import sb3_reinforce
 from sb3_reinforce.cli import main as cli_main
 from sb3_reinforce.compare import runner
-from sb3_reinforce.compare.cli import _check_resumable, build_parser, main, parse_specs, write_outputs
+from sb3_reinforce.compare.cli import build_parser, main, parse_specs, runs_to_do, write_outputs
 from sb3_reinforce.compare.experiment import EVAL_SEED_OFFSET, build_run, known_algos, read_entry
 from sb3_reinforce.compare.render import build_parser as build_report_parser
 from sb3_reinforce.compare.render import main as render_main
@@ -289,12 +289,12 @@ def test_finished_run_with_other_settings_is_refused(tmp_path: Path) -> None:
     spec = RunSpec("CartPole-v1", "ppo", 0, 1000, 500, 2)
     (tmp_path / PER_RUN_DIR).mkdir()
     (tmp_path / PER_RUN_DIR / "ppo_seed0.csv").write_text(",".join(RESULT_COLUMNS) + "\n")  # interrupted: no JSON
-    assert _check_resumable([spec], tmp_path) == [spec]
+    assert runs_to_do([spec], tmp_path) == [spec]
     other = RunSpec("CartPole-v1", "ppo", 0, 2000, 500, 2)
     (tmp_path / PER_RUN_DIR / "ppo_seed0.json").write_text(json.dumps({"spec": other.__dict__}))
     with pytest.raises(ValueError, match="other settings"):
-        _check_resumable([spec], tmp_path)
-    assert _check_resumable([other], tmp_path) == []
+        runs_to_do([spec], tmp_path)
+    assert runs_to_do([other], tmp_path) == []
 
 
 # ---------------------------------------------------------------- a tiny comparison, end to end

@@ -165,7 +165,7 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None]:
     return specs, threshold
 
 
-def _check_resumable(specs: list[RunSpec], out_dir: Path) -> list[RunSpec]:
+def runs_to_do(specs: list[RunSpec], out_dir: Path) -> list[RunSpec]:
     """The runs still to do; refuse an output folder whose finished runs used other settings."""
     todo = []
     for spec in specs:
@@ -263,7 +263,7 @@ def main(argv: list[str] | None = None) -> None:
     out_dir: Path = args.out or Path("runs") / "compare" / args.env
     try:
         specs, threshold = parse_specs(args)
-        todo = _check_resumable(specs, out_dir)
+        todo = runs_to_do(specs, out_dir)
     except ValueError as error:
         parser.error(str(error))
     out_dir.mkdir(parents=True, exist_ok=True)
