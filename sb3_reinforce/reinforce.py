@@ -1,6 +1,6 @@
 import io
 import pathlib
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import Any, ClassVar, TypeVar
 
 import numpy as np
@@ -10,7 +10,7 @@ from stable_baselines3.common.base_class import SelfBaseAlgorithm
 from stable_baselines3.common.buffers import RolloutBuffer
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
-from stable_baselines3.common.policies import BasePolicy
+from stable_baselines3.common.policies import BaseModel, BasePolicy
 from stable_baselines3.common.type_aliases import GymEnv, MaybeCallback, Schedule
 from stable_baselines3.common.utils import FloatSchedule, explained_variance, obs_as_tensor, update_learning_rate
 from stable_baselines3.common.vec_env import VecEnv
@@ -282,6 +282,22 @@ class REINFORCE(OnPolicyAlgorithm):
             modules.append(policy.vf_features_extractor)
         return [param for module in modules for param in module.parameters()]
 
+    def _value_predictor(self, observations: Any) -> Callable[[], th.Tensor]:
+        """
+        ``V(s)`` of the batch, as a function each value step calls. With a features extractor shared with the
+        actor (SB3's default), the features do not depend on the value parameters and the value steps do not
+        change them: they are computed once, without a graph, and each step runs the critic's layers only. The
+        loss and its gradients are those of ``predict_values``; with a CNN, the extractor's forward and backward
+        pass were most of the cost of every step. Otherwise (a critic with its own extractor, or a policy that
+        overrides ``predict_values``), each step calls ``predict_values``.
+        """
+        policy = self.policy
+        if not policy.share_features_extractor or type(policy).predict_values is not ReinforcePolicy.predict_values:
+            return lambda: policy.predict_values(observations)
+        with th.no_grad():
+            features = BaseModel.extract_features(policy, observations, policy.vf_features_extractor)
+        return lambda: policy.value_net(policy.mlp_extractor.forward_critic(features))
+
     def _fit_value_baseline(self, observations: Any, returns: th.Tensor) -> th.Tensor:
         """
         ``n_value_steps`` gradient steps on ``L_V = mean_t (G_t - V(s_t))^2`` over the whole batch (the value
@@ -290,8 +306,9 @@ class REINFORCE(OnPolicyAlgorithm):
         assert self.value_optimizer is not None
         update_learning_rate(self.value_optimizer, self.value_lr_schedule(self._current_progress_remaining))
         parameters = [p for group in self.value_optimizer.param_groups for p in group["params"]]
+        predict_values = self._value_predictor(observations)
         for _ in range(self.n_value_steps):
-            value_loss = F.mse_loss(self.policy.predict_values(observations).flatten(), returns)
+            value_loss = F.mse_loss(predict_values().flatten(), returns)
             self.value_optimizer.zero_grad()
             value_loss.backward()
             if self.max_grad_norm is not None:

@@ -8,11 +8,12 @@ import pytest
 import torch as th
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from stable_baselines3.common.envs import IdentityEnv
+from stable_baselines3.common.envs import FakeImageEnv, IdentityEnv
 from stable_baselines3.common.evaluation import evaluate_policy
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from sb3_reinforce import REINFORCE
+from sb3_reinforce.policies import CnnPolicy
 from sb3_reinforce.returns import discounted_returns, leave_one_out_baseline
 
 # --- the leave-one-out baseline, against a slow reference -------------------------------------------------
@@ -207,6 +208,42 @@ def test_value_steps_fit_the_returns() -> None:
     # 200 steps get there from an initial V ~ 0 (an error of about mean(G^2))
     assert errors[1] < 0.3 * errors[0]
     assert errors[1] < 1.2 * np.var(buffer.returns)
+
+
+class _ValuesThroughTheExtractor(CnnPolicy):
+    """A policy that overrides predict_values: each value step then goes through the whole features extractor."""
+
+    def predict_values(self, obs: th.Tensor) -> th.Tensor:
+        return super().predict_values(obs)
+
+
+def test_value_steps_on_cached_features_match_the_full_network() -> None:
+    # With a shared CNN the value steps compute its features once per batch and step the critic's layers only:
+    # the same weights as stepping through the whole network (forward and backward through the CNN) each time.
+    def image_env(seed: int) -> FakeImageEnv:
+        env = FakeImageEnv(screen_height=40, screen_width=40, n_channels=1, discrete=True)
+        env.observation_space.seed(seed)  # its observations are samples of its space
+        return env
+
+    def trained(policy: type) -> REINFORCE:
+        env = DummyVecEnv([lambda: image_env(0), lambda: image_env(1)])
+        model = REINFORCE(policy, env, baseline="value", n_value_steps=5, value_learning_rate=1e-3, seed=0)
+        return model.learn(40)
+
+    fast, full = trained(CnnPolicy), trained(_ValuesThroughTheExtractor)
+    assert fast._n_updates == full._n_updates >= 2
+    fast_params, full_params = fast.policy.state_dict(), full.policy.state_dict()
+    assert fast_params.keys() == full_params.keys()
+    for key in fast_params:
+        th.testing.assert_close(fast_params[key], full_params[key], rtol=1e-5, atol=1e-6)
+    # the CNN ran once for the 5 value steps of a batch, against 5 times through predict_values
+    observations, returns = th.rand((8, 1, 40, 40)) * 255, th.rand(8)
+    for model, expected_calls in ((fast, 1), (full, 5)):
+        calls: list[int] = []
+        hook = model.policy.features_extractor.register_forward_hook(lambda *args, calls=calls: calls.append(1))
+        model._fit_value_baseline(observations, returns)
+        hook.remove()
+        assert len(calls) == expected_calls
 
 
 def test_value_learning_rate_schedule() -> None:
