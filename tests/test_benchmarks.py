@@ -181,3 +181,15 @@ def test_pilot_scores_of_committed_runs() -> None:
     assert by_seed.loc[100, "first >= threshold"] == 50_000 and by_seed.loc[101, "first >= threshold"] == "never"
     assert by_seed.loc[100, "last 5"] == -77.6 and by_seed.loc[101, "final"] == -500.0
     assert list(scores["evals from 800,000 >= threshold"]) == ["6/6", "0/5"]
+
+
+def test_value_steps_cost_tiny_budget(tmp_path: Path) -> None:
+    # Both paths of the value steps run on the same config, interleaved, one CSV row each
+    out = tmp_path / "value_steps_cost.csv"
+    config = BENCHMARKS / "configs" / "reinforce_acrobot_value20.yml"
+    args = ["--env", "Acrobot-v1", "--config", str(config), "--steps", "500", "--repeats", "1", "--out", str(out)]
+    load("value_steps_cost").main(args)
+    rows = read_rows(out)
+    assert [row["path"] for row in rows] == ["cached", "full"]
+    assert all(int(row["steps"]) >= 500 for row in rows)
+    assert all(0 < float(row[key]) < float(row["wall_s"]) for row in rows for key in ("value_steps_s", "env_step_s"))
