@@ -13,6 +13,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from sb3_reinforce.stats import first_crossing
+
 
 def run_scores(folder: Path, threshold: float, from_steps: int) -> pd.DataFrame:
     """One row per (algorithm, seed) of a comparison folder."""
@@ -20,7 +22,7 @@ def run_scores(folder: Path, threshold: float, from_steps: int) -> pd.DataFrame:
     for (algo, seed), run in pd.read_csv(folder / "results.csv").groupby(["algo", "seed"], sort=False):
         run = run.sort_values("eval_index")
         trained = run[run["eval_index"] > 0]
-        reached = trained[trained["mean_return"] >= threshold]
+        first = first_crossing(trained["steps"], trained["mean_return"], threshold)
         late = run[run["steps"] >= from_steps]
         rows.append(
             {
@@ -28,7 +30,7 @@ def run_scores(folder: Path, threshold: float, from_steps: int) -> pd.DataFrame:
                 "algo": algo,
                 "seed": seed,
                 "steps": int(run["steps"].iloc[-1]),
-                "first >= threshold": int(reached["steps"].iloc[0]) if len(reached) else "never",
+                "first >= threshold": int(first) if first < float("inf") else "never",
                 "last 5": round(run["mean_return"].iloc[-5:].mean(), 1),
                 "final": round(run["mean_return"].iloc[-1], 1),
                 "final sampled": round(run["mean_return_stochastic"].iloc[-1], 1),

@@ -20,6 +20,7 @@ import csv
 import statistics
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +34,19 @@ COLUMNS = ["env_id", "config", "path", "repeat", "steps", "wall_s", "cpu_s", "va
 COLUMNS += ["cpu_steps_per_s"]
 
 
+def timed(function: Callable[..., Any], seconds: list[float]) -> Callable[..., Any]:
+    """``function``, adding the wall-clock seconds of each call to ``seconds[0]``."""
+
+    def wrapper(*args: Any) -> Any:
+        start = time.perf_counter()
+        try:
+            return function(*args)
+        finally:
+            seconds[0] += time.perf_counter() - start
+
+    return wrapper
+
+
 def measure(env_id: str, config: Path, path: str, steps: int, seed: int) -> dict[str, Any]:
     """Train a fresh model for ``steps`` steps with the ``cached`` or the ``full`` value-step path."""
     th.set_num_threads(1)
@@ -42,29 +56,9 @@ def measure(env_id: str, config: Path, path: str, steps: int, seed: int) -> dict
         assert isinstance(model, REINFORCE) and model.n_value_steps > 0, "the config must fit the value by steps of its own"
         if path == "full":  # every value step through predict_values: the features extractor forward and backward
             model._value_predictor = lambda observations: lambda: model.policy.predict_values(observations)  # type: ignore[method-assign]
-        fit = model._fit_value_baseline
-        value_seconds = [0.0]
-
-        def timed_fit(observations: Any, returns: th.Tensor) -> th.Tensor:
-            start = time.perf_counter()
-            try:
-                return fit(observations, returns)
-            finally:
-                value_seconds[0] += time.perf_counter() - start
-
-        model._fit_value_baseline = timed_fit  # type: ignore[method-assign]
-        env = built.train_env
-        env_step = env.step
-        env_seconds = [0.0]
-
-        def timed_step(actions: Any) -> Any:
-            start = time.perf_counter()
-            try:
-                return env_step(actions)
-            finally:
-                env_seconds[0] += time.perf_counter() - start
-
-        env.step = timed_step  # type: ignore[method-assign]
+        value_seconds, env_seconds = [0.0], [0.0]
+        model._fit_value_baseline = timed(model._fit_value_baseline, value_seconds)  # type: ignore[method-assign]
+        built.train_env.step = timed(built.train_env.step, env_seconds)  # type: ignore[method-assign]
         wall, cpu = time.perf_counter(), time.process_time()
         model.learn(steps)
         wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
