@@ -6,6 +6,12 @@ actions), the best one, and how many evaluations from ``--from-steps`` on are at
 
     python benchmarks/pilot_scores.py benchmarks/results/mountaincar_pilot/* --threshold -110
     python benchmarks/pilot_scores.py benchmarks/results/verify_acrobot --threshold -100
+
+A folder without ``results.csv`` (a study trial's) is read from its ``per_run/*.csv``. ``LABEL=FOLDER`` pools
+folders under one label, so that one config's seeds from a study trial and from a later run are scored together:
+
+    python benchmarks/pilot_scores.py t7=benchmarks/results/study_lunarlander_1m/trials/007 \
+        t7=benchmarks/results/lunarlander_rescore/t7_value20_clip --threshold 200
 """
 
 import argparse
@@ -16,17 +22,27 @@ import pandas as pd
 from sb3_reinforce.stats import first_crossing
 
 
-def run_scores(folder: Path, threshold: float, from_steps: int) -> pd.DataFrame:
-    """One row per (algorithm, seed) of a comparison folder."""
+def read_results(folder: Path) -> pd.DataFrame:
+    """A comparison folder's evaluations: its ``results.csv``, or else its ``per_run/*.csv`` (a study trial's)."""
+    if (folder / "results.csv").is_file():
+        return pd.read_csv(folder / "results.csv")
+    per_run = sorted((folder / "per_run").glob("*.csv"))
+    if not per_run:
+        raise FileNotFoundError(f"{folder} has neither results.csv nor per_run/*.csv")
+    return pd.concat([pd.read_csv(path) for path in per_run], ignore_index=True)
+
+
+def run_scores(folder: Path, threshold: float, from_steps: int, label: str | None = None) -> pd.DataFrame:
+    """One row per (algorithm, seed) of a comparison folder; ``label`` names it (default: the folder's name)."""
     rows = []
-    for (algo, seed), run in pd.read_csv(folder / "results.csv").groupby(["algo", "seed"], sort=False):
+    for (algo, seed), run in read_results(folder).groupby(["algo", "seed"], sort=False):
         run = run.sort_values("eval_index")
         trained = run[run["eval_index"] > 0]
         first = first_crossing(trained["steps"], trained["mean_return"], threshold)
         late = run[run["steps"] >= from_steps]
         rows.append(
             {
-                "folder": folder.name,
+                "folder": label or folder.name,
                 "algo": algo,
                 "seed": seed,
                 "steps": int(run["steps"].iloc[-1]),
@@ -43,17 +59,16 @@ def run_scores(folder: Path, threshold: float, from_steps: int) -> pd.DataFrame:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
-    parser.add_argument("folders", nargs="+", type=Path, help="comparison folders (with results.csv)")
+    parser.add_argument("folders", nargs="+", help="comparison folders (results.csv or per_run/*.csv), PATH or LABEL=PATH")
     parser.add_argument("--threshold", type=float, required=True, help="the env's solve threshold")
     parser.add_argument("--from-steps", type=int, default=800_000, help="count late evaluations from here (default: 800,000)")
     args = parser.parse_args()
-    table = pd.concat(
-        [run_scores(folder, args.threshold, args.from_steps) for folder in args.folders if (folder / "results.csv").is_file()]
-    )
+    labelled = [arg.split("=", 1) if "=" in arg else [None, arg] for arg in args.folders]
+    table = pd.concat([run_scores(Path(path), args.threshold, args.from_steps, label) for label, path in labelled])
     with pd.option_context("display.width", 250, "display.max_columns", None, "display.max_rows", None):
         print(table.to_string(index=False))
-        last5 = table.groupby(["folder", "algo"], sort=False)["last 5"].mean().round(1)
-        print("\nmean of the runs' last-5 scores:\n" + last5.to_string())
+        last5 = table.groupby(["folder", "algo"], sort=False)["last 5"].agg(["mean", "count"]).round(1)
+        print("\nmean of the runs' last-5 scores (count: seeds):\n" + last5.to_string())
 
 
 if __name__ == "__main__":

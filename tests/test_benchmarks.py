@@ -183,6 +183,14 @@ def test_pilot_scores_of_committed_runs() -> None:
     assert list(scores["evals from 800,000 >= threshold"]) == ["6/6", "0/5"]
 
 
+def test_pilot_scores_of_a_study_trial_folder() -> None:
+    # A study trial keeps only per_run/*.csv; its seeds' last-5 means are the study's score (trial 7: 252.7)
+    trial = BENCHMARKS / "results" / "study_lunarlander_1m" / "trials" / "007"
+    scores = load("pilot_scores").run_scores(trial, 200, 800_000, label="t7")
+    assert list(scores["seed"]) == [100, 101] and set(scores["folder"]) == {"t7"}
+    assert round(scores["last 5"].mean(), 1) == 252.7
+
+
 def test_value_steps_cost_tiny_budget(tmp_path: Path) -> None:
     # Both paths of the value steps run on the same config, interleaved, one CSV row each
     out = tmp_path / "value_steps_cost.csv"
