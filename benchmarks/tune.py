@@ -54,7 +54,8 @@ def trial_entry(base: dict[str, Any], params: dict[str, Any], budget: int) -> di
 def build_objective(args: argparse.Namespace, base: dict[str, Any]) -> Any:
     def objective(trial: optuna.Trial) -> float:
         trial.set_user_attr("worker", f"{socket.gethostname()}:{os.getpid()}")
-        params = suggest_reinforce_params(trial)
+        # Observation normalization is searched unless the base config sets the zoo's `normalize` for every trial
+        params = suggest_reinforce_params(trial, search_normalization="normalize" not in base)
         # A rerun of an interrupted trial goes on in its folder: finished seeds are kept, a checkpointed one resumes
         folder_number = trial.user_attrs.get("rerun_of", trial.number)
         trial_dir = args.study_dir / "trials" / f"{folder_number:03d}"

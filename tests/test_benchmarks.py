@@ -104,7 +104,7 @@ def test_tune_tiny_budget(tmp_path: Path) -> None:
     tune.main(args)
     trials = read_rows(study_dir / "trials.csv")
     assert len(trials) == 2 and all(t["state"] == "COMPLETE" for t in trials)
-    assert trials[0]["params_n_value_steps"] == "5" and all(t["params_net_arch"] == "tiny" for t in trials)
+    assert float(trials[0]["params_n_value_steps"]) == 5 and all(t["params_net_arch"] == "tiny" for t in trials)
     for trial in trials:
         number = int(trial["number"])
         scores = []

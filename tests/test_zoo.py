@@ -18,14 +18,17 @@ import rl_zoo3.exp_manager
 import yaml
 from stable_baselines3 import A2C, PPO, TD3
 from stable_baselines3.common.env_util import make_vec_env
+from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 from sb3_reinforce import REINFORCE, seed_hyperparams
 from sb3_reinforce.zoo import config_path, main
 from sb3_reinforce.zoo.hyperparams_opt import (
+    NORMALIZE_OBSERVATIONS,
     convert_reinforce_params,
     parse_zoo_entry,
     sample_reinforce_params,
     suggest_n_envs,
+    suggest_normalize_observations,
 )
 
 if sys.version_info >= (3, 11):
@@ -199,11 +202,11 @@ def test_config_entry_builds_and_trains(tmp_path: Path, config: str, env_id: str
         assert {k: model.policy_kwargs[k] for k in policy_kwargs} == policy_kwargs
 
 
-#: The verified configuration behind each zoo entry (benchmarks/configs/, run on seeds 1000-1009 by
-#: ``sb3-reinforce compare``): the entry must be that file's, key for key, or its results say nothing about it.
+#: The verified configuration behind each zoo entry (benchmarks/configs/, run by ``sb3-reinforce compare`` on seeds
+#: 1000-1009, LunarLander-v3's on 2000-2009): the entry must be that file's, key for key, or its results say nothing about it.
 VERIFIED_CONFIGS = {
     "Acrobot-v1": "reinforce_acrobot_value20.yml",
-    "LunarLander-v3": "reinforce_lunarlander_value20_clip.yml",
+    "LunarLander-v3": "reinforce_lunarlander_value20_clip_normobs.yml",
     "LunarLanderContinuous-v3": "reinforce_llc_value20.yml",
     "Pendulum-v1": "reinforce_pendulum_gsde.yml",
     "MountainCar-v0": "reinforce_mountaincar_value20.yml",
@@ -244,10 +247,11 @@ def test_seed_mountaincar_has_no_time_limit() -> None:
 
 def test_sampler_gives_valid_reinforce_arguments() -> None:
     study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=0))
-    baselines = set()
+    baselines, normalizations = set(), set()
     for _ in range(30):
         trial = study.ask()
         n_envs = suggest_n_envs(trial)
+        normalize = suggest_normalize_observations(trial)  # as the experiment manager does, before the sampler
         try:
             kwargs = sample_reinforce_params(trial, 0, n_envs, {})
         except optuna.TrialPruned:
@@ -255,16 +259,19 @@ def test_sampler_gives_valid_reinforce_arguments() -> None:
             assert trial.params["baseline"] == "loo" and trial.params["n_envs"] * trial.params["n_episodes"] == 1
             study.tell(trial, state=optuna.trial.TrialState.PRUNED)
             continue
-        assert "n_envs" not in kwargs
+        assert "n_envs" not in kwargs and "normalize" not in kwargs  # they set the env, not the model
         baselines.add(trial.params["baseline"])
+        normalizations.add(normalize)
         model = REINFORCE("MlpPolicy", make_vec_env("CartPole-v1", n_envs=n_envs), device="cpu", **kwargs)
         assert model.n_envs == n_envs
         assert model.n_value_steps == trial.params.get("n_value_steps", 0)
         # what the zoo's --trial-id loading does with the stored params: a zoo entry, parsed as the zoo parses files
         entry = convert_reinforce_params(trial.params)
         assert entry["n_envs"] == n_envs and yaml.safe_load(yaml.safe_dump(entry)) == entry  # plain YAML values
+        assert entry.get("normalize") == (NORMALIZE_OBSERVATIONS if normalize else None)
         parsed = parse_zoo_entry(entry)
-        assert {k: v for k, v in parsed.items() if not callable(v) and k not in ("n_envs", "policy_kwargs")} == {
+        zoo_keys = ("n_envs", "normalize", "policy_kwargs")
+        assert {k: v for k, v in parsed.items() if not callable(v) and k not in zoo_keys} == {
             k: v for k, v in kwargs.items() if not callable(v) and k != "policy_kwargs"
         }
         assert parsed["policy_kwargs"] == kwargs["policy_kwargs"]
@@ -274,7 +281,7 @@ def test_sampler_gives_valid_reinforce_arguments() -> None:
             0.5 if trial.params["lr_schedule"] == "linear" else 1.0
         )
         study.tell(trial, 0.0)
-    assert baselines == {"none", "value", "loo"}
+    assert baselines == {"none", "value", "loo"} and normalizations == {False, True}
     trial = study.ask()
     trial.suggest_categorical("n_envs", [1, 2, 4, 8])
     with pytest.raises(RuntimeError, match=r"sb3_reinforce\.zoo"):
@@ -317,6 +324,56 @@ def test_optimize_two_trials(tmp_path: Path) -> None:
         assert model.n_envs == trial["n_envs"]
         assert (model.n_episodes, model.baseline, model.gamma) == (trial["n_episodes"], trial["baseline"], trial["gamma"])
         assert model.policy_kwargs["net_arch"] == trial["policy_kwargs"]["net_arch"]
+
+
+def test_optimize_applies_observation_normalization(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # Each trial's training env is normalized (observations only) exactly when the trial sampled it; a config
+    # with a `normalize` of its own is not searched over, and its normalization is every trial's.
+    built: list[tuple[int, bool, dict[str, bool] | None]] = []
+    create_envs = rl_zoo3.exp_manager.ExperimentManager.create_envs
+
+    def recording_create_envs(self: Any, n_envs: int, eval_env: bool = False, no_log: bool = False) -> VecEnv:
+        env = create_envs(self, n_envs, eval_env=eval_env, no_log=no_log)
+        if not eval_env:
+            vec_normalize = env if isinstance(env, VecNormalize) else None
+            flags = None if vec_normalize is None else {"obs": vec_normalize.norm_obs, "reward": vec_normalize.norm_reward}
+            built.append((n_envs, vec_normalize is not None, flags))
+        return env
+
+    monkeypatch.setattr(rl_zoo3.exp_manager.ExperimentManager, "create_envs", recording_create_envs)
+    args = ["train", "--algo", "reinforce", "--env", "CartPole-v1", "-optimize", "--n-trials", "6", "-n", "600"]
+    args += ["--n-evaluations", "1", "--eval-episodes", "1", "--sampler", "random", "--seed", "0", "--no-optim-plots"]
+    args += ["--storage", str(tmp_path / "study.log"), "--study-name", "normalization", "-f", str(tmp_path), "--verbose", "0"]
+    assert main(args) == 0
+    study = optuna.load_study(
+        study_name="normalization",
+        storage=optuna.storages.JournalStorage(optuna.storages.journal.JournalFileBackend(str(tmp_path / "study.log"))),
+    )
+    trained = [trial for trial in study.trials if trial.state == optuna.trial.TrialState.COMPLETE]
+    assert built.pop(0) == (1, False, None)  # the zoo's setup env, from the config, before the trials
+    assert len(built) == len(trained) == 6
+    expected = [
+        (
+            t.params["n_envs"],
+            t.params["normalize_observations"],
+            {"obs": True, "reward": False} if t.params["normalize_observations"] else None,
+        )
+        for t in trained
+    ]
+    assert built == expected
+    assert {normalized for _, normalized, _ in built} == {False, True}
+
+    built.clear()
+    config = write_config(tmp_path, {"normalize": "{'norm_obs': False, 'norm_reward': True}"})
+    args[args.index("normalization")] = "config-normalization"
+    assert main([*args, "-conf", config]) == 0
+    study = optuna.load_study(
+        study_name="config-normalization",
+        storage=optuna.storages.JournalStorage(optuna.storages.journal.JournalFileBackend(str(tmp_path / "study.log"))),
+    )
+    assert all("normalize_observations" not in trial.params for trial in study.trials)
+    built.pop(0)  # the setup env
+    assert [flags for _, _, flags in built] == [{"obs": False, "reward": True}] * len(built) and len(built) == 6
 
 
 def test_distributed_study_two_workers(tmp_path: Path) -> None:

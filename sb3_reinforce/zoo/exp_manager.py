@@ -5,7 +5,8 @@ rl_zoo3's ``ExperimentManager``, with what REINFORCE needs on top.
 - Config errors are found before anything is built: a missing file or env entry, a key the algorithm's
   constructor does not accept, or (for REINFORCE) an invalid value raise :class:`ZooUsageError` with the
   file, the env id and the allowed keys or values.
-- ``--optimize`` applies the trial's sampled ``n_envs``, records which worker (host:pid) ran each trial,
+- ``--optimize`` applies the trial's sampled ``n_envs`` and observation normalization (searched where the
+  config has no ``normalize`` of its own), records which worker (host:pid) ran each trial,
   and prunes trials whose hyperparameters make REINFORCE fail (non-finite loss, a rollout too long)
   instead of ending the whole study.
 - ``--optimize`` with a database ``--storage`` (PostgreSQL, any algorithm) runs with heartbeats, retries the
@@ -32,7 +33,7 @@ from sb3_reinforce.buffers import RolloutLimitError
 from sb3_reinforce.reinforce import NonFiniteError
 from sb3_reinforce.validation import validate_hyperparameters
 from sb3_reinforce.zoo.configs import config_path
-from sb3_reinforce.zoo.hyperparams_opt import suggest_n_envs
+from sb3_reinforce.zoo.hyperparams_opt import NORMALIZE_OBSERVATIONS_KWARGS, suggest_n_envs, suggest_normalize_observations
 from sb3_reinforce.zoo.storage import (
     DATABASE_ERRORS,
     FaultTolerance,
@@ -166,7 +167,9 @@ class ReinforceExperimentManager(ExperimentManager):
     def objective(self, trial: optuna.Trial) -> float:
         """
         Train and evaluate one trial (rl_zoo3's objective). For REINFORCE, the trial's ``n_envs`` sample
-        sets the number of environments, and a failure caused by the sampled hyperparameters prunes the trial.
+        sets the number of environments, its ``normalize_observations`` sample (where the config has no
+        ``normalize``) wraps them in ``VecNormalize`` of the observations, and a failure caused by the sampled
+        hyperparameters prunes the trial.
 
         :param trial: The Optuna trial
         :return: The last mean evaluation reward
@@ -182,15 +185,17 @@ class ReinforceExperimentManager(ExperimentManager):
                 raise SurplusTrial(f"Trial {trial.number}: the study already has its {self.max_total_trials} trials")
         if self.algo != ALGO_NAME:
             return super().objective(trial)
-        config_n_envs = self.n_envs
+        config_n_envs, config_normalize, config_normalize_kwargs = self.n_envs, self.normalize, self.normalize_kwargs
         self.n_envs = suggest_n_envs(trial)
+        if not config_normalize and suggest_normalize_observations(trial):
+            self.normalize, self.normalize_kwargs = True, dict(NORMALIZE_OBSERVATIONS_KWARGS)
         try:
             return super().objective(trial)
         except (NonFiniteError, RolloutLimitError) as error:
             print(f"Trial {trial.number} pruned: {error}")
             raise optuna.exceptions.TrialPruned(str(error)) from error
         finally:
-            self.n_envs = config_n_envs
+            self.n_envs, self.normalize, self.normalize_kwargs = config_n_envs, config_normalize, config_normalize_kwargs
 
     def hyperparameters_optimization(self) -> None:
         """

@@ -7,12 +7,14 @@ Optuna search space of REINFORCE, for rl-baselines3-zoo's ``--optimize`` and for
   (``convert_reinforce_params``) and a study's output config use.
 - ``sample_reinforce_params`` is the zoo's sampler signature ``(trial, n_actions, n_envs, additional_args)``
   and returns constructor arguments of :class:`~sb3_reinforce.REINFORCE` (the same entry, parsed as the zoo
-  parses a file). The number of environments is searched too: it is applied by
-  :class:`sb3_reinforce.zoo.exp_manager.ReinforceExperimentManager` before the trial's environments are built.
+  parses a file). The number of environments and observation normalization are searched too: they are
+  applied by :class:`sb3_reinforce.zoo.exp_manager.ReinforceExperimentManager` before the trial's environments
+  are built (observation normalization only where the config has no ``normalize`` of its own).
 
 Every lever keeps the update Monte-Carlo policy gradient (one step per batch of whole episodes): batch size,
-environments, learning-rate schedule, discount, network, entropy bonus, clipping, return standardization and
-the baseline (none, a learned ``V(s)`` fitted by ``n_value_steps`` steps of its own, or the leave-one-out mean).
+environments, observation normalization, learning-rate schedule, discount, network, entropy bonus, clipping,
+return standardization and the baseline (none, a learned ``V(s)`` fitted by ``n_value_steps`` steps of its
+own, or the leave-one-out mean).
 """
 
 from typing import Any
@@ -25,12 +27,15 @@ __all__ = [
     "ACTIVATIONS",
     "BASELINE_CHOICES",
     "NET_ARCHS",
+    "NORMALIZE_OBSERVATIONS",
+    "NORMALIZE_OBSERVATIONS_KWARGS",
     "N_ENVS_CHOICES",
     "N_VALUE_STEPS_CHOICES",
     "convert_reinforce_params",
     "parse_zoo_entry",
     "sample_reinforce_params",
     "suggest_n_envs",
+    "suggest_normalize_observations",
     "suggest_reinforce_params",
     "zoo_entry",
 ]
@@ -49,6 +54,10 @@ N_ENVS_CHOICES = (1, 2, 4, 8)
 BASELINE_CHOICES = ("none", "value", "loo")
 #: Value-regression steps per batch searched with ``baseline="value"`` (0: one joint step with the policy).
 N_VALUE_STEPS_CHOICES = (0, 5, 20, 80)
+#: The zoo's ``normalize`` value of a trial that normalizes observations: ``VecNormalize`` of the observations
+#: only (the policy-gradient weights are standardized returns, ``normalize_returns``, or raw ones).
+NORMALIZE_OBSERVATIONS_KWARGS: dict[str, bool] = {"norm_obs": True, "norm_reward": False}
+NORMALIZE_OBSERVATIONS = str(NORMALIZE_OBSERVATIONS_KWARGS)
 
 
 def suggest_n_envs(trial: optuna.Trial) -> int:
@@ -61,16 +70,31 @@ def suggest_n_envs(trial: optuna.Trial) -> int:
     return int(trial.suggest_categorical("n_envs", N_ENVS_CHOICES))
 
 
-def suggest_reinforce_params(trial: optuna.Trial) -> dict[str, Any]:
+def suggest_normalize_observations(trial: optuna.Trial) -> bool:
+    """
+    Whether the trial normalizes observations (``VecNormalize``, observations only; asking again returns the
+    same value).
+
+    :param trial: The Optuna trial
+    :return: The sampled value
+    """
+    return bool(trial.suggest_categorical("normalize_observations", [False, True]))
+
+
+def suggest_reinforce_params(trial: optuna.Trial, search_normalization: bool = True) -> dict[str, Any]:
     """
     Ask the trial for every searched value. A leave-one-out baseline needs two episodes per batch: a trial
     that samples it with ``n_envs * n_episodes == 1`` is pruned.
 
     :param trial: The Optuna trial
+    :param search_normalization: Whether to ask for ``normalize_observations`` (not where the config sets the
+        zoo's ``normalize`` itself, which then stands for every trial)
     :return: The raw values, as ``trial.params`` stores them
     :raises optuna.TrialPruned: for a leave-one-out baseline with one episode per batch
     """
     suggest_n_envs(trial)
+    if search_normalization:
+        suggest_normalize_observations(trial)
     trial.suggest_float("learning_rate", 1e-4, 3e-2, log=True)
     trial.suggest_categorical("lr_schedule", ["constant", "linear"])
     trial.suggest_float("one_minus_gamma", 1e-3, 0.1, log=True)
@@ -98,7 +122,8 @@ def zoo_entry(sampled_params: dict[str, Any]) -> dict[str, Any]:
 
     :param sampled_params: A trial's ``params`` (see :func:`suggest_reinforce_params`); ``lr_schedule``,
         ``n_value_steps`` and ``value_learning_rate`` may be missing (trials of older studies: constant, joint step)
-    :return: Hyperparameters as in a zoo config (``n_envs`` included when it was sampled)
+    :return: Hyperparameters as in a zoo config (``n_envs`` included when it was sampled, ``normalize`` when
+        observation normalization was sampled and is on)
     """
     params = dict(sampled_params)
     learning_rate = float(params.pop("learning_rate"))
@@ -123,6 +148,8 @@ def zoo_entry(sampled_params: dict[str, Any]) -> dict[str, Any]:
     hyperparams["max_grad_norm"] = None if max_grad_norm == 0 else max_grad_norm
     if "n_envs" in params:
         hyperparams["n_envs"] = params.pop("n_envs")
+    if params.pop("normalize_observations", False):
+        hyperparams["normalize"] = NORMALIZE_OBSERVATIONS
     if params:
         raise ValueError(f"Unknown REINFORCE search parameters {sorted(params)}")
     return hyperparams
@@ -166,7 +193,8 @@ def sample_reinforce_params(
     :param n_envs: Number of environments the trial's training env has; must be the trial's ``n_envs``
         sample, which :class:`~sb3_reinforce.zoo.exp_manager.ReinforceExperimentManager` applies
     :param additional_args: The zoo's extra arguments (unused)
-    :return: Keyword arguments for :class:`~sb3_reinforce.REINFORCE` (without ``n_envs``, which sets the env)
+    :return: Keyword arguments for :class:`~sb3_reinforce.REINFORCE` (without ``n_envs`` and ``normalize``,
+        which set the env: the experiment manager suggests and applies ``normalize_observations`` itself)
     """
     sampled_n_envs = suggest_n_envs(trial)
     if sampled_n_envs != n_envs:
@@ -174,6 +202,7 @@ def sample_reinforce_params(
             f"The trial sampled n_envs={sampled_n_envs} but its environment has {n_envs}: run the search through "
             "`python -m sb3_reinforce.zoo train --algo reinforce --optimize ...`, which applies the sampled n_envs."
         )
-    kwargs = parse_zoo_entry(zoo_entry(suggest_reinforce_params(trial)))
+    kwargs = parse_zoo_entry(zoo_entry(suggest_reinforce_params(trial, search_normalization=False)))
     del kwargs["n_envs"]
+    kwargs.pop("normalize", None)
     return kwargs
