@@ -329,15 +329,14 @@ def test_optimize_two_trials(tmp_path: Path) -> None:
 def test_optimize_applies_observation_normalization(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # Each trial's training env is normalized (observations only) exactly when the trial sampled it; a config
     # with a `normalize` of its own is not searched over, and its normalization is every trial's.
-    built: list[tuple[int, bool, dict[str, bool] | None]] = []
+    built: list[tuple[int, dict[str, bool] | None]] = []  # per training env: n_envs, VecNormalize's flags or None
     create_envs = rl_zoo3.exp_manager.ExperimentManager.create_envs
 
     def recording_create_envs(self: Any, n_envs: int, eval_env: bool = False, no_log: bool = False) -> VecEnv:
         env = create_envs(self, n_envs, eval_env=eval_env, no_log=no_log)
         if not eval_env:
-            vec_normalize = env if isinstance(env, VecNormalize) else None
-            flags = None if vec_normalize is None else {"obs": vec_normalize.norm_obs, "reward": vec_normalize.norm_reward}
-            built.append((n_envs, vec_normalize is not None, flags))
+            flags = {"obs": env.norm_obs, "reward": env.norm_reward} if isinstance(env, VecNormalize) else None
+            built.append((n_envs, flags))
         return env
 
     monkeypatch.setattr(rl_zoo3.exp_manager.ExperimentManager, "create_envs", recording_create_envs)
@@ -345,35 +344,23 @@ def test_optimize_applies_observation_normalization(tmp_path: Path, monkeypatch:
     args += ["--n-evaluations", "1", "--eval-episodes", "1", "--sampler", "random", "--seed", "0", "--no-optim-plots"]
     args += ["--storage", str(tmp_path / "study.log"), "--study-name", "normalization", "-f", str(tmp_path), "--verbose", "0"]
     assert main(args) == 0
-    study = optuna.load_study(
-        study_name="normalization",
-        storage=optuna.storages.JournalStorage(optuna.storages.journal.JournalFileBackend(str(tmp_path / "study.log"))),
-    )
+    storage = optuna.storages.JournalStorage(optuna.storages.journal.JournalFileBackend(str(tmp_path / "study.log")))
+    study = optuna.load_study(study_name="normalization", storage=storage)
     trained = [trial for trial in study.trials if trial.state == optuna.trial.TrialState.COMPLETE]
-    assert built.pop(0) == (1, False, None)  # the zoo's setup env, from the config, before the trials
+    assert built.pop(0) == (1, None)  # the zoo's setup env, from the config, before the trials
     assert len(built) == len(trained) == 6
-    expected = [
-        (
-            t.params["n_envs"],
-            t.params["normalize_observations"],
-            {"obs": True, "reward": False} if t.params["normalize_observations"] else None,
-        )
-        for t in trained
-    ]
-    assert built == expected
-    assert {normalized for _, normalized, _ in built} == {False, True}
+    normalized = {"obs": True, "reward": False}
+    assert built == [(t.params["n_envs"], normalized if t.params["normalize_observations"] else None) for t in trained]
+    assert {flags is not None for _, flags in built} == {False, True}
 
     built.clear()
     config = write_config(tmp_path, {"normalize": "{'norm_obs': False, 'norm_reward': True}"})
     args[args.index("normalization")] = "config-normalization"
     assert main([*args, "-conf", config]) == 0
-    study = optuna.load_study(
-        study_name="config-normalization",
-        storage=optuna.storages.JournalStorage(optuna.storages.journal.JournalFileBackend(str(tmp_path / "study.log"))),
-    )
+    study = optuna.load_study(study_name="config-normalization", storage=storage)
     assert all("normalize_observations" not in trial.params for trial in study.trials)
     built.pop(0)  # the setup env
-    assert [flags for _, _, flags in built] == [{"obs": False, "reward": True}] * len(built) and len(built) == 6
+    assert [flags for _, flags in built] == [{"obs": False, "reward": True}] * len(built) and len(built) == 6
 
 
 def test_distributed_study_two_workers(tmp_path: Path) -> None:
