@@ -11,7 +11,7 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import optuna
@@ -24,9 +24,12 @@ from sb3_reinforce.zoo.storage import (
     FaultTolerance,
     StorageError,
     caused_by_database,
+    held_slots,
     open_database_storage,
+    owes_retry,
     retried_trial_number,
     retry_failed_trials,
+    surplus_reason,
 )
 from tests.postgres import PostgresServer, ServerUnavailable, postgres_server
 
@@ -83,8 +86,17 @@ def wait_for_running_trial(storage: str, study_name: str, pid: int | None = None
     raise TimeoutError(f"no running trial{'' if pid is None else f' of worker {pid}'} after {timeout} s")
 
 
-def check_exact_total(study: optuna.Study, total: int) -> list[optuna.trial.FrozenTrial]:
+def check_exact_total(study: optuna.Study, total: int, outputs: Sequence[str] = ()) -> list[optuna.trial.FrozenTrial]:
     """Exactly `total` finished trials, every failed one retried once by a finished trial."""
+    try:
+        return _check_exact_total(study, total)
+    except AssertionError as error:
+        trials = [(t.number, t.state.name, retried_trial_number(t), t.user_attrs) for t in study.get_trials()]
+        shown = "\n".join(f"--- worker {i} ---\n{output[-4000:]}" for i, output in enumerate(outputs))
+        raise AssertionError(f"{error}\ntrials: {trials}\n{shown}") from error
+
+
+def _check_exact_total(study: optuna.Study, total: int) -> list[optuna.trial.FrozenTrial]:
     trials = study.get_trials()
     finished = [t for t in trials if t.state in (TrialState.COMPLETE, TrialState.PRUNED)]
     assert len(finished) == total, [(t.number, t.state) for t in trials]
@@ -139,25 +151,118 @@ def test_server_restart_during_trials(postgres: PostgresServer, tmp_path: Path) 
     for worker in workers:
         wait_for_running_trial(postgres.url, "restarted-server", worker.pid)
     postgres.restart()  # every connection of both workers is closed
-    for worker in workers:
-        finish(worker)
-    check_exact_total(optuna.load_study(study_name="restarted-server", storage=postgres.url), 4)
+    outputs = [finish(worker) for worker in workers]
+    check_exact_total(optuna.load_study(study_name="restarted-server", storage=postgres.url), 4, outputs)
+
+
+def sqlite_study(tmp_path: Path, max_retry: int = 3) -> optuna.Study:
+    storage = open_database_storage(f"sqlite:///{tmp_path / 'study.db'}", FaultTolerance(1, 4, max_retry))
+    return optuna.create_study(storage=storage, direction="maximize")
+
+
+def add_trial(study: optuna.Study, state: TrialState, worker: str = "host:1") -> optuna.trial.FrozenTrial:
+    trial = study.ask()
+    trial.suggest_float("x", 0, 1)
+    trial.set_user_attr("worker", worker)
+    if state != TrialState.RUNNING:
+        study.tell(trial, 1.0 if state == TrialState.COMPLETE else None, state=state)
+    return study.trials[trial.number]
 
 
 def test_a_trial_failed_by_a_lost_connection_is_retried_once(tmp_path: Path) -> None:
     # Optuna marks a trial FAIL when the database error reaches it: the worker queues its retry (not a stale trial)
-    storage = open_database_storage(f"sqlite:///{tmp_path / 'study.db'}", FaultTolerance(1, 4, 3))
-    study = optuna.create_study(storage=storage, direction="maximize")
-    mine, other = study.ask(), study.ask()
-    for trial, worker in ((mine, "host:1"), (other, "host:2")):
-        trial.suggest_float("x", 0, 1)
-        trial.set_user_attr("worker", worker)
-        study.tell(trial, state=TrialState.FAIL)
-    retry_failed_trials(study, "host:1")
-    retry_failed_trials(study, "host:1")  # once only
+    study = sqlite_study(tmp_path)
+    mine, _ = add_trial(study, TrialState.FAIL, "host:1"), add_trial(study, TrialState.FAIL, "host:2")
+    retry_failed_trials(study, "host:1", max_retry=3, orphaned_after=60)
+    retry_failed_trials(study, "host:1", max_retry=3, orphaned_after=60)  # once only
     waiting = study.get_trials(states=(TrialState.WAITING,))
-    assert [retried_trial_number(t) for t in waiting] == [mine.number]
-    assert waiting[0].params == {"x": mine.params["x"]}
+    assert [retried_trial_number(t) for t in waiting] == [mine.number]  # the other worker's failure is recent
+    assert waiting[0].params == mine.params
+
+
+def test_an_orphaned_failure_is_retried_by_any_worker(tmp_path: Path) -> None:
+    # A worker that died between the failure of its trial and the retry: another worker queues it after the delay
+    study = sqlite_study(tmp_path)
+    orphan = add_trial(study, TrialState.FAIL, "host:2")
+    retry_failed_trials(study, "host:1", max_retry=3)  # no delay given: only this worker's own failures
+    assert not study.get_trials(states=(TrialState.WAITING,))
+    time.sleep(1.1)
+    retry_failed_trials(study, "host:1", max_retry=3, orphaned_after=1)
+    assert [retried_trial_number(t) for t in study.get_trials(states=(TrialState.WAITING,))] == [orphan.number]
+
+
+def test_a_failed_trial_keeps_its_slot_for_its_retry(tmp_path: Path) -> None:
+    # In the order the database numbers them: 0 done, 1 failed (owed a retry), 2 running; a total of 3
+    study = sqlite_study(tmp_path)
+    add_trial(study, TrialState.COMPLETE)
+    failed = add_trial(study, TrialState.FAIL)
+    add_trial(study, TrialState.RUNNING)
+    assert owes_retry(failed, study.trials, max_retry=3)
+    assert held_slots(study.trials, max_retry=3) == 3
+    # A new trial started now is surplus: it would take the failed trial's slot and leave its retry none
+    fresh = add_trial(study, TrialState.RUNNING, "host:2")
+    assert surplus_reason(fresh.number, study.trials, total=3, max_retry=3) == "the study already has its 3 trials"
+    study._storage.set_trial_user_attr(fresh._trial_id, "surplus", True)
+    study.tell(fresh.number, state=TrialState.FAIL)
+    # The retry, queued after that trial, takes the slot that was kept for it
+    retry_failed_trials(study, "host:1", max_retry=3)
+    retry = study.ask()  # the waiting retry is run first
+    assert retried_trial_number(study.trials[retry.number]) == failed.number
+    assert not owes_retry(failed, study.trials, max_retry=3)
+    assert surplus_reason(retry.number, study.trials, total=3, max_retry=3) is None
+    assert held_slots(study.trials, max_retry=3) == 3
+    # A second retry of the same trial (two workers queued one at the same moment) does not run
+    study.enqueue_trial(failed.params, user_attrs=failed.user_attrs)
+    duplicate = study.ask()
+    study._storage.set_trial_system_attr(duplicate._trial_id, "failed_trial", failed.number)
+    assert surplus_reason(duplicate.number, study.trials, total=10, max_retry=3) == f"trial {failed.number} is already retried"
+
+
+def test_a_trial_that_never_beat_is_failed_and_retried(tmp_path: Path) -> None:
+    # A worker that died (or lost the database) before its heartbeat thread wrote once: Optuna alone never fails it
+    study = sqlite_study(tmp_path)  # heartbeat every 1 s, grace period 4 s
+    silent = add_trial(study, TrialState.RUNNING)  # asked, no heartbeat thread
+    beating = add_trial(study, TrialState.RUNNING)
+    study._storage.record_heartbeat(beating._trial_id)
+    optuna.storages.fail_stale_trials(study)  # first seen silent now
+    assert study.trials[silent.number].state == TrialState.RUNNING
+    time.sleep(2.5)
+    study._storage.record_heartbeat(beating._trial_id)
+    optuna.storages.fail_stale_trials(study)
+    assert study.trials[silent.number].state == TrialState.RUNNING  # not silent for the grace period yet
+    time.sleep(2.5)
+    study._storage.record_heartbeat(beating._trial_id)
+    optuna.storages.fail_stale_trials(study)
+    assert study.trials[silent.number].state == TrialState.FAIL
+    assert study.trials[beating.number].state == TrialState.RUNNING
+    assert [retried_trial_number(t) for t in study.get_trials(states=(TrialState.WAITING,))] == [silent.number]
+
+
+def test_a_trial_failed_by_its_own_error_is_not_retried(tmp_path: Path) -> None:
+    # The objective records the error of a trial that failed by itself: retrying it would only fail again
+    study = sqlite_study(tmp_path)
+    trial = study.ask()
+    trial.set_user_attr("worker", "host:1")
+    trial.set_user_attr("error", "ValueError: a bug")
+    study.tell(trial, state=TrialState.FAIL)
+    assert not owes_retry(study.trials[0], study.trials, max_retry=3)
+    retry_failed_trials(study, "host:1", max_retry=3, orphaned_after=0)
+    assert not study.get_trials(states=(TrialState.WAITING,))
+
+
+def test_a_trial_out_of_retries_frees_its_slot(tmp_path: Path) -> None:
+    study = sqlite_study(tmp_path, max_retry=1)
+    failed = add_trial(study, TrialState.FAIL)
+    retry_failed_trials(study, "host:1", max_retry=1)
+    retry = study.ask()
+    study.tell(retry, state=TrialState.FAIL)  # the retry fails in turn: no retry is left
+    retry_failed_trials(study, "host:1", max_retry=1)
+    assert not study.get_trials(states=(TrialState.WAITING,))
+    assert not owes_retry(study.trials[retry.number], study.trials, max_retry=1)
+    assert held_slots(study.trials, max_retry=1) == 0
+    fresh = add_trial(study, TrialState.RUNNING)
+    assert surplus_reason(fresh.number, study.trials, total=1, max_retry=1) is None
+    assert retried_trial_number(study.trials[retry.number]) == failed.number
 
 
 def run_main(args: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, list[str]]:

@@ -462,3 +462,19 @@ def test_bad_input_from_the_command_line_has_no_traceback(tmp_path: Path) -> Non
     assert out.returncode == 2
     assert "Traceback" not in out.stderr
     assert out.stderr.strip().splitlines()[-1].startswith("sb3-reinforce-zoo train: error: ")
+
+
+def test_a_trial_that_fails_by_its_own_error_records_it(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # A database study retries the trials of dead workers, not a trial whose training raised (it would fail again)
+    def broken_objective(self: Any, trial: optuna.Trial) -> float:
+        raise RuntimeError("the training broke")
+
+    monkeypatch.setattr(rl_zoo3.exp_manager.ExperimentManager, "objective", broken_objective)
+    storage = f"sqlite:///{tmp_path / 'study.db'}"
+    args = ["train", "--algo", "reinforce", "--env", "CartPole-v1", "-optimize", "--n-trials", "1", "-n", "600"]
+    args += ["--sampler", "random", "--no-optim-plots", "--storage", storage, "--study-name", "broken", "-f", str(tmp_path)]
+    with pytest.raises(RuntimeError, match="the training broke"):
+        main(args)
+    (trial,) = optuna.load_study(study_name="broken", storage=storage).trials
+    assert trial.state == optuna.trial.TrialState.FAIL
+    assert trial.user_attrs["error"] == "RuntimeError: the training broke"

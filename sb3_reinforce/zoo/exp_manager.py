@@ -15,6 +15,7 @@ rl_zoo3's ``ExperimentManager``, with what REINFORCE needs on top.
   trials, running the retries of workers that died.
 """
 
+import contextlib
 import inspect
 import os
 import socket
@@ -39,9 +40,11 @@ from sb3_reinforce.zoo.storage import (
     FaultTolerance,
     caused_by_database,
     check_direction,
+    held_slots,
     is_database_url,
     open_database_storage,
     retry_failed_trials,
+    surplus_reason,
 )
 
 __all__ = ["ALGO_NAME", "ReinforceExperimentManager", "ZooUsageError"]
@@ -171,18 +174,26 @@ class ReinforceExperimentManager(ExperimentManager):
         ``normalize``) wraps them in ``VecNormalize`` of the observations, and a failure caused by the sampled
         hyperparameters prunes the trial.
 
+        A trial that fails by an error of its own (not one of the database) records it in its ``error`` user
+        attribute: it is not retried (:func:`~sb3_reinforce.zoo.storage.owes_retry`).
+
         :param trial: The Optuna trial
         :return: The last mean evaluation reward
         """
         trial.set_user_attr("worker", self._worker_name())
         if self.max_total_trials is not None and is_database_url(self.storage):
-            # Trial numbers are given out by the database, in order: the trials numbered before this one that
-            # finished or are running already make the total when two workers started one at the same moment.
-            counted = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED, optuna.trial.TrialState.RUNNING)
-            earlier = [t for t in trial.study.get_trials(deepcopy=False, states=counted) if t.number < trial.number]
-            if len(earlier) >= self.max_total_trials:
-                trial.set_user_attr("surplus", True)
-                raise SurplusTrial(f"Trial {trial.number}: the study already has its {self.max_total_trials} trials")
+            self._check_slot(trial, self.max_total_trials)
+        try:
+            return self._train_trial(trial)
+        except (optuna.exceptions.TrialPruned, SurplusTrial):
+            raise
+        except Exception as error:
+            if not caused_by_database(error):
+                with contextlib.suppress(*DATABASE_ERRORS):
+                    trial.set_user_attr("error", f"{type(error).__name__}: {error}"[:1000])
+            raise
+
+    def _train_trial(self, trial: optuna.Trial) -> float:
         if self.algo != ALGO_NAME:
             return super().objective(trial)
         config_n_envs, config_normalize, config_normalize_kwargs = self.n_envs, self.normalize, self.normalize_kwargs
@@ -196,6 +207,14 @@ class ReinforceExperimentManager(ExperimentManager):
             raise optuna.exceptions.TrialPruned(str(error)) from error
         finally:
             self.n_envs, self.normalize, self.normalize_kwargs = config_n_envs, config_normalize, config_normalize_kwargs
+
+    def _check_slot(self, trial: optuna.Trial, total: int) -> None:
+        """Record a trial started beyond the total, or a second retry of one trial, FAIL as "surplus", unrun."""
+        trials = trial.study.get_trials(deepcopy=False)
+        reason = surplus_reason(trial.number, trials, total, self.fault_tolerance.max_retry)
+        if reason is not None:
+            trial.set_user_attr("surplus", True)
+            raise SurplusTrial(f"Trial {trial.number}: {reason}")
 
     def hyperparameters_optimization(self) -> None:
         """
@@ -238,15 +257,15 @@ class ReinforceExperimentManager(ExperimentManager):
         if "command" not in study.user_attrs:
             study.set_user_attr("command", " ".join(sys.orig_argv))
         finished_states = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)
+        tolerance = self.fault_tolerance
         done_here = 0
         lost_since: float | None = None
-        retry_mine = False
         while True:
             try:
                 optuna.storages.fail_stale_trials(study)  # dead workers' trials: FAIL, and a retry is enqueued
-                if retry_mine:
-                    retry_failed_trials(study, self._worker_name())
-                    retry_mine = False
+                # This worker's trials that Optuna marked FAIL when the database went away, and the retries of
+                # workers that died before they could queue theirs
+                retry_failed_trials(study, self._worker_name(), tolerance.max_retry, orphaned_after=tolerance.grace_period)
                 trials = study.get_trials(deepcopy=False)
                 lost_since = None
             except DATABASE_ERRORS as error:
@@ -257,12 +276,11 @@ class ReinforceExperimentManager(ExperimentManager):
                     return
             else:
                 finished = sum(t.state in finished_states for t in trials)
-                running = sum(t.state == optuna.trial.TrialState.RUNNING for t in trials)
                 waiting = sum(t.state == optuna.trial.TrialState.WAITING for t in trials)
                 if finished >= self.max_total_trials:
                     return
-                if finished + running >= self.max_total_trials and waiting == 0:
-                    time.sleep(min(self.fault_tolerance.heartbeat_interval, 5))  # the last trials run elsewhere
+                if held_slots(trials, tolerance.max_retry) >= self.max_total_trials and waiting == 0:
+                    time.sleep(min(tolerance.heartbeat_interval, 5))  # the last trials run (or are retried) elsewhere
                     continue
             try:
                 # A trial started beyond the total by a race between workers is recorded FAIL as "surplus" and not run
@@ -273,7 +291,6 @@ class ReinforceExperimentManager(ExperimentManager):
                     raise
                 # The trial is left RUNNING without heartbeats (failed and retried after the grace period), or
                 # Optuna marked it FAIL on the way out: this worker queues its retry once the database is back.
-                retry_mine = True
                 lost_since = self._wait_for_database(error, lost_since)
 
     @staticmethod

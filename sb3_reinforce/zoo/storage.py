@@ -5,7 +5,12 @@ URL SQLAlchemy knows), set up to survive the faults of a real cluster.
 - **A killed worker loses nothing.** Every running trial records a heartbeat every ``heartbeat_interval``
   seconds. A trial whose heartbeat is older than ``grace_period`` is marked ``FAIL`` by the next worker that
   looks, and :class:`optuna.storages.RetryFailedTrialCallback` enqueues a copy of it (same hyperparameters,
-  at most ``max_retry`` times), which the next free worker runs.
+  at most ``max_retry`` times), which the next free worker runs. A trial that Optuna marks ``FAIL`` because
+  the database went away is retried the same way by its own worker (by any worker once it is older than
+  ``grace_period``: its worker died first).
+- **The total is exact** (``--max-total-trials``): a failed trial owed a retry keeps its slot
+  (:func:`held_slots`), so a new trial cannot take it before the retry runs, and a trial started beyond the
+  total, or a second retry of the same trial, is recorded ``FAIL`` as "surplus" and not run.
 - **A dropped connection is survived.** Connections are checked before use (SQLAlchemy's ``pool_pre_ping``),
   so a worker reconnects after the server restarts. A heartbeat that cannot be written while the server is
   down is skipped, not fatal.
@@ -13,8 +18,10 @@ URL SQLAlchemy knows), set up to survive the faults of a real cluster.
   that cannot be reached or refuses the credentials.
 """
 
+import datetime
 import time
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -22,6 +29,8 @@ import optuna
 import sqlalchemy
 import sqlalchemy.exc
 from optuna.storages import RDBStorage
+from optuna.storages._rdb import models as _models  # the trials and heartbeats tables, for never-beating trials
+from optuna.storages._rdb.storage import _create_scoped_session
 
 # Optuna >= 4.9 names the retry of heartbeat-stale trials on its own; older versions call it the failed-trial callback.
 _RetryCallback: Any = getattr(optuna.storages, "RetryHeartbeatStaleTrialCallback", None)
@@ -32,15 +41,20 @@ if _RetryCallback is None:  # pragma: no cover (Optuna < 4.9)
 
 __all__ = [
     "DATABASE_ERRORS",
+    "SLOT_STATES",
     "FaultTolerance",
     "StorageError",
     "caused_by_database",
     "check_direction",
+    "held_slots",
     "is_database_url",
     "open_database_storage",
+    "original_trial_number",
+    "owes_retry",
     "redact",
     "retried_trial_number",
     "retry_failed_trials",
+    "surplus_reason",
 ]
 
 #: Errors of a database that went away (server restart, network): a worker waits and reconnects. Optuna reports
@@ -102,7 +116,35 @@ def redact(url: str) -> str:
 
 
 class _ReconnectingRDBStorage(RDBStorage):
-    """``RDBStorage`` whose heartbeats skip a beat while the database is unreachable instead of ending the thread."""
+    """
+    ``RDBStorage`` whose heartbeats skip a beat while the database is unreachable instead of ending the thread,
+    and that finds stale the running trials that never recorded a heartbeat.
+    """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        #: Running trials without a heartbeat, with the database time they were first seen so
+        self._silent_since: dict[int, datetime.datetime] = {}
+
+    def _get_stale_trial_ids(self, study_id: int) -> list[int]:
+        """
+        Optuna's stale trials (a heartbeat older than the grace period), and the running trials that have had no
+        heartbeat for the grace period since this storage first saw them: their worker died, or lost the
+        database, before its heartbeat thread wrote once (Optuna alone would leave them running forever).
+        """
+        stale = super()._get_stale_trial_ids(study_id)
+        grace_period = self.grace_period if self.grace_period is not None else 2 * (self.heartbeat_interval or 0)
+        with _create_scoped_session(self.scoped_session, True) as session:
+            now = session.execute(sqlalchemy.func.now()).scalar_one().replace(tzinfo=None)  # the database's clock
+            silent = session.query(_models.TrialModel.trial_id).filter(
+                _models.TrialModel.study_id == study_id,
+                _models.TrialModel.state == optuna.trial.TrialState.RUNNING,
+                ~_models.TrialModel.heartbeats.any(),
+            )
+            silent_ids = {row[0] for row in silent.all()}
+        self._silent_since = {trial_id: self._silent_since.get(trial_id, now) for trial_id in silent_ids}
+        overdue = [trial_id for trial_id, since in self._silent_since.items() if (now - since).total_seconds() > grace_period]
+        return stale + [trial_id for trial_id in overdue if trial_id not in stale]
 
     def record_heartbeat(self, trial_id: int) -> None:
         try:
@@ -133,13 +175,87 @@ def caused_by_database(error: BaseException) -> bool:
     return False
 
 
-def retry_failed_trials(study: optuna.Study, worker: str) -> None:
+#: States in which a trial holds one of the ``--max-total-trials`` slots: finished, running, or queued to run.
+SLOT_STATES = (
+    optuna.trial.TrialState.COMPLETE,
+    optuna.trial.TrialState.PRUNED,
+    optuna.trial.TrialState.RUNNING,
+    optuna.trial.TrialState.WAITING,
+)
+
+
+def original_trial_number(trial: optuna.trial.FrozenTrial) -> int:
+    """The number of the trial that ``trial`` retries (through any chain of retries), or its own number."""
+    retried = retried_trial_number(trial)
+    return trial.number if retried is None else retried
+
+
+def owes_retry(trial: optuna.trial.FrozenTrial, trials: Sequence[optuna.trial.FrozenTrial], max_retry: int) -> bool:
     """
-    Queue a retry of every FAIL trial of ``worker`` that has none yet, as the storage does for stale trials (the
-    same callback, so ``max_retry`` holds). For a trial that Optuna marked FAIL because the database went away.
+    Whether ``trial`` failed by no error of its own (its worker died or lost the database; not a surplus trial,
+    no ``error`` user attribute), may still be retried (fewer than ``max_retry`` retries of its original so far)
+    and no trial of ``trials`` numbered after it is its retry yet.
+    """
+    if trial.state != optuna.trial.TrialState.FAIL or trial.user_attrs.get("surplus") or trial.user_attrs.get("error"):
+        return False
+    if len(trial.system_attrs.get("retry_history", [])) >= max_retry:
+        return False
+    original = original_trial_number(trial)
+    return not any(other.number > trial.number and retried_trial_number(other) == original for other in trials)
+
+
+def held_slots(trials: Sequence[optuna.trial.FrozenTrial], max_retry: int, exclude_original: int | None = None) -> int:
+    """
+    How many of a study's ``--max-total-trials`` slots ``trials`` hold: each finished, running or waiting trial
+    holds one, and so does each failed trial that is owed a retry (its slot is kept for the retry, so that no
+    new trial takes it first and the retry finds the study full).
+
+    :param trials: The trials to count (all the study's, or those numbered before a trial that just started)
+    :param max_retry: How many times a failed trial is retried
+    :param exclude_original: Leave out the trials of this original trial and its retries (a retry checking
+        whether its own slot is free)
+    :return: The number of slots held
+    """
+    return sum(
+        original_trial_number(trial) != exclude_original
+        and (trial.state in SLOT_STATES or owes_retry(trial, trials, max_retry))
+        for trial in trials
+    )
+
+
+def surplus_reason(number: int, trials: Sequence[optuna.trial.FrozenTrial], total: int, max_retry: int) -> str | None:
+    """
+    Why trial ``number``, just started, must not run in a study of ``total`` trials, or None if it may. Trial
+    numbers are given out by the database in order, so the trials numbered before it decide (whatever the
+    timing of the workers): it is surplus if they hold every slot (:func:`held_slots`; a retry takes the slot
+    its failed trial kept for it), or if it retries a trial that another retry already retries.
+
+    :param number: The number of the trial
+    :param trials: The study's trials, this one among them
+    :param total: ``--max-total-trials``
+    :param max_retry: How many times a failed trial is retried
+    :return: The reason, for the message, or None
+    """
+    original = original_trial_number(next(trial for trial in trials if trial.number == number))
+    earlier = [trial for trial in trials if trial.number < number]
+    if any(original_trial_number(trial) == original and trial.state in SLOT_STATES for trial in earlier):
+        return f"trial {original} is already retried"
+    if held_slots(earlier, max_retry, exclude_original=original) >= total:
+        return f"the study already has its {total} trials"
+    return None
+
+
+def retry_failed_trials(study: optuna.Study, worker: str, max_retry: int, orphaned_after: float | None = None) -> None:
+    """
+    Queue the retry of every failed trial of ``worker`` that is owed one (:func:`owes_retry`), as the storage
+    does for stale trials (the same callback): a trial Optuna marked FAIL because the database went away. With
+    ``orphaned_after``, the retries owed to any worker for longer than that many seconds too (their worker died
+    before it could queue them; the time is that of the worker clocks).
 
     :param study: The study
     :param worker: The ``worker`` user attribute of the trials to retry
+    :param max_retry: How many times a failed trial is retried
+    :param orphaned_after: Seconds after which anyone's owed retry is queued (None: never)
     """
     storage: Any = study._storage
     getter = getattr(storage, "get_heartbeat_stale_trial_callback", None) or storage.get_failed_trial_callback
@@ -147,12 +263,14 @@ def retry_failed_trials(study: optuna.Study, worker: str) -> None:
     if callback is None:
         return
     trials = study.get_trials(deepcopy=False)
-    retried = {retried_trial_number(trial) for trial in trials}
+    now = datetime.datetime.now()
     for trial in trials:
-        failed = trial.state == optuna.trial.TrialState.FAIL and not trial.user_attrs.get("surplus")
-        if failed and trial.user_attrs.get("worker") == worker:
-            if trial.number not in retried:
-                callback(study, trial)
+        if not owes_retry(trial, trials, max_retry):
+            continue
+        failed_at = trial.datetime_complete or now
+        orphaned = orphaned_after is not None and (now - failed_at).total_seconds() > orphaned_after
+        if trial.user_attrs.get("worker") == worker or orphaned:
+            callback(study, trial)
 
 
 def _first_line(error: BaseException) -> str:
