@@ -67,7 +67,7 @@ def start_worker(args: list[str], seed: int, cwd: Path) -> subprocess.Popen:
     )
 
 
-def finish(worker: subprocess.Popen, timeout: float = 300) -> str:
+def finish(worker: subprocess.Popen, timeout: float = 600) -> str:
     output, _ = worker.communicate(timeout=timeout)
     assert worker.returncode == 0, output[-3000:]
     return output
@@ -132,7 +132,7 @@ def test_two_workers_one_study(postgres: PostgresServer, tmp_path: Path) -> None
 
 
 def test_killed_worker_loses_no_trial(postgres: PostgresServer, tmp_path: Path) -> None:
-    args = optimize_args(postgres.url, "killed-worker", 20_000, total=3)
+    args = optimize_args(postgres.url, "killed-worker", 10_000, total=3)
     victim = start_worker(args, 0, tmp_path)
     wait_for_running_trial(postgres.url, "killed-worker", victim.pid)
     survivor = start_worker(args, 1, tmp_path)

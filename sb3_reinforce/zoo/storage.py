@@ -18,6 +18,7 @@ URL SQLAlchemy knows), set up to survive the faults of a real cluster.
   that cannot be reached or refuses the credentials.
 """
 
+import copy
 import datetime
 import time
 import warnings
@@ -270,7 +271,7 @@ def retry_failed_trials(study: optuna.Study, worker: str, max_retry: int, orphan
         failed_at = trial.datetime_complete or now
         orphaned = orphaned_after is not None and (now - failed_at).total_seconds() > orphaned_after
         if trial.user_attrs.get("worker") == worker or orphaned:
-            callback(study, trial)
+            callback(study, copy.deepcopy(trial))  # the callback extends the trial's retry history in place
 
 
 def _first_line(error: BaseException) -> str:
