@@ -203,10 +203,10 @@ def test_config_entry_builds_and_trains(tmp_path: Path, config: str, env_id: str
 
 
 #: The verified configuration behind each zoo entry (benchmarks/configs/, run by ``sb3-reinforce compare`` on seeds
-#: 1000-1009, LunarLander-v3's on 2000-2009): the entry must be that file's, key for key, or its results say nothing about it.
+#: 1000-1009, LunarLander-v3's on 3000-3009): the entry must be that file's, key for key, or its results say nothing about it.
 VERIFIED_CONFIGS = {
     "Acrobot-v1": "reinforce_acrobot_value20.yml",
-    "LunarLander-v3": "reinforce_lunarlander_value20_clip_normobs.yml",
+    "LunarLander-v3": "reinforce_lunarlander_value20_clip_normobs_gamma0995.yml",
     "LunarLanderContinuous-v3": "reinforce_llc_value20.yml",
     "Pendulum-v1": "reinforce_pendulum_gsde.yml",
     "MountainCar-v0": "reinforce_mountaincar_value20.yml",
