@@ -13,9 +13,11 @@ import sys
 import time
 from collections.abc import Iterator, Sequence
 from pathlib import Path
+from typing import Any
 
 import optuna
 import pytest
+import rl_zoo3.exp_manager
 from optuna.trial import TrialState
 
 from sb3_reinforce import REINFORCE
@@ -103,11 +105,12 @@ def _check_exact_total(study: optuna.Study, total: int) -> list[optuna.trial.Fro
     assert not [t for t in trials if t.state in (TrialState.RUNNING, TrialState.WAITING)]
     # a trial two workers started beyond the total at the same moment is recorded FAIL as surplus, and never run
     failed = [t for t in trials if t.state == TrialState.FAIL and not t.user_attrs.get("surplus")]
-    retried = {retried_trial_number(t): t for t in finished}
     for trial in failed:
-        assert trial.number in retried, f"failed trial {trial.number} was not retried"
+        # a finished trial retries it, directly or through a retry of its retry (which failed in turn)
+        retries = [t for t in finished if trial.number in t.system_attrs.get("retry_history", [])]
+        assert retries, f"failed trial {trial.number} was not retried"
         # the retry keeps what the failed trial had sampled (killed early, it may not have sampled everything)
-        assert trial.params.items() <= retried[trial.number].params.items()
+        assert trial.params.items() <= retries[0].params.items()
     return failed
 
 
@@ -145,6 +148,8 @@ def test_killed_worker_loses_no_trial(postgres: PostgresServer, tmp_path: Path) 
 
 
 def test_server_restart_during_trials(postgres: PostgresServer, tmp_path: Path) -> None:
+    # Both workers reconnect and the total stays exact. Whether a trial fails and is retried depends on whether a
+    # write fell into the pause; the retry paths themselves are tested on SQLite below, deterministically.
     # a grace period well above the restart's pause, so that no live trial is taken for a dead one on a busy machine
     args = optimize_args(postgres.url, "restarted-server", 20_000, total=4, grace_period=20)
     workers = [start_worker(args, seed, tmp_path) for seed in (0, 1)]
@@ -186,7 +191,7 @@ def test_an_orphaned_failure_is_retried_by_any_worker(tmp_path: Path) -> None:
     orphan = add_trial(study, TrialState.FAIL, "host:2")
     retry_failed_trials(study, "host:1", max_retry=3)  # no delay given: only this worker's own failures
     assert not study.get_trials(states=(TrialState.WAITING,))
-    time.sleep(1.1)
+    time.sleep(2.1)  # timed by the database's clock (SQLite's has whole seconds), from when this worker first saw it
     retry_failed_trials(study, "host:1", max_retry=3, orphaned_after=1)
     assert [retried_trial_number(t) for t in study.get_trials(states=(TrialState.WAITING,))] == [orphan.number]
 
@@ -216,6 +221,65 @@ def test_a_failed_trial_keeps_its_slot_for_its_retry(tmp_path: Path) -> None:
     duplicate = study.ask()
     study._storage.set_trial_system_attr(duplicate._trial_id, "failed_trial", failed.number)
     assert surplus_reason(duplicate.number, study.trials, total=10, max_retry=3) == f"trial {failed.number} is already retried"
+
+
+def queue_retry(study: optuna.Study, failed: optuna.trial.FrozenTrial) -> None:
+    """What a worker does for a failed trial it owes a retry: the storage's retry callback."""
+    study._storage.get_heartbeat_stale_trial_callback()(study, study.trials[failed.number])
+
+
+def test_a_duplicate_retry_does_not_cancel_the_retry_of_the_retry(tmp_path: Path) -> None:
+    # Two workers queued the retry of one orphan at the same moment; the first copy runs and loses the database
+    study = sqlite_study(tmp_path)
+    failed = add_trial(study, TrialState.FAIL, "host:1")
+    queue_retry(study, failed)
+    queue_retry(study, failed)
+    retry = study.ask()
+    study._storage.set_trial_user_attr(retry._trial_id, "worker", "host:2")
+    study.tell(retry, state=TrialState.FAIL)
+    retry, duplicate = study.trials[retry.number], study.get_trials(states=(TrialState.WAITING,))[0]
+    assert retried_trial_number(duplicate) == failed.number
+    assert owes_retry(retry, study.trials, max_retry=3)  # the duplicate retries trial 0, not this retry
+    assert not owes_retry(study.trials[failed.number], study.trials, max_retry=3)
+    # The duplicate, run now, is surplus whatever happened to the first copy: it would add a retry to the chain
+    assert surplus_reason(duplicate.number, study.trials, total=10, max_retry=3) == f"trial {failed.number} is already retried"
+    retry_failed_trials(study, "host:2", max_retry=3)
+    (retry_of_retry,) = [t for t in study.get_trials(states=(TrialState.WAITING,)) if t.number != duplicate.number]
+    assert retry_of_retry.system_attrs["retry_history"] == [failed.number, retry.number]
+
+
+def test_a_stale_trial_that_had_failed_by_itself_is_not_retried(tmp_path: Path) -> None:
+    # Its error was recorded, then its worker lost the database before it could record the FAIL: found stale later
+    study = sqlite_study(tmp_path)
+    for attribute in ("error", "surplus"):
+        trial = add_trial(study, TrialState.RUNNING)
+        study._storage.set_trial_user_attr(trial._trial_id, attribute, "ValueError: a bug" if attribute == "error" else True)
+        study._storage.set_trial_state_values(trial._trial_id, state=TrialState.FAIL)
+        queue_retry(study, trial)
+    assert not study.get_trials(states=(TrialState.WAITING,))
+
+
+def test_a_retry_left_waiting_in_a_full_study_is_recorded_surplus(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # Two workers queued one retry; the first copy filled the study: the last worker out runs the other, as surplus
+    def no_training(self: Any, trial: optuna.Trial) -> float:
+        raise AssertionError(f"trial {trial.number} trained in a full study")
+
+    monkeypatch.setattr(rl_zoo3.exp_manager.ExperimentManager, "objective", no_training)
+    url = f"sqlite:///{tmp_path / 'study.db'}"
+    storage = open_database_storage(url, FaultTolerance(1, 4, 3))
+    study = optuna.create_study(storage=storage, study_name="full", direction="maximize")
+    failed = add_trial(study, TrialState.FAIL, "host:1")
+    queue_retry(study, failed)
+    queue_retry(study, failed)
+    retry = study.ask()
+    study.tell(retry, 1.0)
+    assert main([*optimize_args(url, "full", 100, total=1), "-f", str(tmp_path / "logs")]) == 0
+    trials = optuna.load_study(study_name="full", storage=url).trials
+    assert [(t.state, t.user_attrs.get("surplus")) for t in trials] == [
+        (TrialState.FAIL, None),
+        (TrialState.COMPLETE, None),
+        (TrialState.FAIL, True),
+    ]
 
 
 def test_a_trial_that_never_beat_is_failed_and_retried(tmp_path: Path) -> None:

@@ -277,13 +277,14 @@ class ReinforceExperimentManager(ExperimentManager):
             else:
                 finished = sum(t.state in finished_states for t in trials)
                 waiting = sum(t.state == optuna.trial.TrialState.WAITING for t in trials)
-                if finished >= self.max_total_trials:
+                if finished >= self.max_total_trials and waiting == 0:
                     return
                 if held_slots(trials, tolerance.max_retry) >= self.max_total_trials and waiting == 0:
                     time.sleep(min(tolerance.heartbeat_interval, 5))  # the last trials run (or are retried) elsewhere
                     continue
             try:
-                # A trial started beyond the total by a race between workers is recorded FAIL as "surplus" and not run
+                # A trial started beyond the total by a race between workers is recorded FAIL as "surplus" and not run;
+                # so is a retry queued twice (two workers adopting one orphan), which may still wait when the study is full
                 study.optimize(self.objective, n_trials=1, gc_after_trial=True, catch=(SurplusTrial,))
                 done_here += 1
             except Exception as error:

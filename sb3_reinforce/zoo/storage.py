@@ -6,8 +6,8 @@ URL SQLAlchemy knows), set up to survive the faults of a real cluster.
   seconds. A trial whose heartbeat is older than ``grace_period`` is marked ``FAIL`` by the next worker that
   looks, and :class:`optuna.storages.RetryFailedTrialCallback` enqueues a copy of it (same hyperparameters,
   at most ``max_retry`` times), which the next free worker runs. A trial that Optuna marks ``FAIL`` because
-  the database went away is retried the same way by its own worker (by any worker once it is older than
-  ``grace_period``: its worker died first).
+  the database went away is retried the same way by its own worker (by any worker that has seen it owed a retry
+  for ``grace_period`` seconds of the database's clock: its worker died first).
 - **The total is exact** (``--max-total-trials``): a failed trial owed a retry keeps its slot
   (:func:`held_slots`), so a new trial cannot take it before the retry runs, and a trial started beyond the
   total, or a second retry of the same trial, is recorded ``FAIL`` as "surplus" and not run.
@@ -34,11 +34,29 @@ from optuna.storages._rdb import models as _models  # the trials and heartbeats 
 from optuna.storages._rdb.storage import _create_scoped_session
 
 # Optuna >= 4.9 names the retry of heartbeat-stale trials on its own; older versions call it the failed-trial callback.
-_RetryCallback: Any = getattr(optuna.storages, "RetryHeartbeatStaleTrialCallback", None)
+_OptunaRetryCallback: Any = getattr(optuna.storages, "RetryHeartbeatStaleTrialCallback", None)
 _RETRY_ARGUMENT = "heartbeat_stale_trial_callback"
-if _RetryCallback is None:  # pragma: no cover (Optuna < 4.9)
-    _RetryCallback = optuna.storages.RetryFailedTrialCallback
+if _OptunaRetryCallback is None:  # pragma: no cover (Optuna < 4.9)
+    _OptunaRetryCallback = optuna.storages.RetryFailedTrialCallback
     _RETRY_ARGUMENT = "failed_trial_callback"
+
+#: User attributes that say a failed trial ended by itself (its own error) or never ran: it is not retried
+_OUTCOME_ATTRS = ("error", "surplus")
+
+
+class _RetryCallback(_OptunaRetryCallback):
+    """
+    Optuna's retry of a failed trial (the same hyperparameters, a WAITING copy, at most ``max_retry`` times),
+    except for a trial that failed by its own error or never ran (``error``, ``surplus``): a trial marked so
+    whose worker then lost the database before it could record the FAIL is found stale later, and must not be
+    retried either. The failed trial is copied first (Optuna extends its retry history in place).
+    """
+
+    def __call__(self, study: optuna.Study, trial: optuna.trial.FrozenTrial) -> None:
+        if any(trial.user_attrs.get(name) for name in _OUTCOME_ATTRS):
+            return
+        super().__call__(study, copy.deepcopy(trial))
+
 
 __all__ = [
     "DATABASE_ERRORS",
@@ -126,6 +144,22 @@ class _ReconnectingRDBStorage(RDBStorage):
         super().__init__(*args, **kwargs)
         #: Running trials without a heartbeat, with the database time they were first seen so
         self._silent_since: dict[int, datetime.datetime] = {}
+        #: Failed trials owed a retry, with the database time they were first seen so
+        self._owed_since: dict[int, datetime.datetime] = {}
+
+    def _database_now(self) -> datetime.datetime:
+        """The database's clock (every worker reads the same one, whatever its own clock or time zone)."""
+        with _create_scoped_session(self.scoped_session, True) as session:
+            return session.execute(sqlalchemy.func.now()).scalar_one().replace(tzinfo=None)
+
+    def seconds_owed(self, trial_ids: Sequence[int]) -> dict[int, float]:
+        """
+        How long each of ``trial_ids``, failed trials owed a retry, has been seen so by this storage, in seconds
+        of the database's clock (0 for a trial seen for the first time; trials no longer given are forgotten).
+        """
+        now = self._database_now()
+        self._owed_since = {trial_id: self._owed_since.get(trial_id, now) for trial_id in trial_ids}
+        return {trial_id: (now - since).total_seconds() for trial_id, since in self._owed_since.items()}
 
     def _get_stale_trial_ids(self, study_id: int) -> list[int]:
         """
@@ -135,8 +169,8 @@ class _ReconnectingRDBStorage(RDBStorage):
         """
         stale = super()._get_stale_trial_ids(study_id)
         grace_period = self.grace_period if self.grace_period is not None else 2 * (self.heartbeat_interval or 0)
+        now = self._database_now()
         with _create_scoped_session(self.scoped_session, True) as session:
-            now = session.execute(sqlalchemy.func.now()).scalar_one().replace(tzinfo=None)  # the database's clock
             silent = session.query(_models.TrialModel.trial_id).filter(
                 _models.TrialModel.study_id == study_id,
                 _models.TrialModel.state == optuna.trial.TrialState.RUNNING,
@@ -158,7 +192,7 @@ def retried_trial_number(trial: optuna.trial.FrozenTrial) -> int | None:
     """The number of the failed trial that ``trial`` retries, or None if it is no retry."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-        return _RetryCallback.retried_trial_number(trial)
+        return _OptunaRetryCallback.retried_trial_number(trial)
 
 
 def caused_by_database(error: BaseException) -> bool:
@@ -195,14 +229,14 @@ def owes_retry(trial: optuna.trial.FrozenTrial, trials: Sequence[optuna.trial.Fr
     """
     Whether ``trial`` failed by no error of its own (its worker died or lost the database; not a surplus trial,
     no ``error`` user attribute), may still be retried (fewer than ``max_retry`` retries of its original so far)
-    and no trial of ``trials`` numbered after it is its retry yet.
+    and no trial of ``trials`` retries it yet (directly, or through a retry of its retry). Only the retries of this
+    very trial count: a duplicate retry of the trial it retries (refused as surplus) does not.
     """
-    if trial.state != optuna.trial.TrialState.FAIL or trial.user_attrs.get("surplus") or trial.user_attrs.get("error"):
+    if trial.state != optuna.trial.TrialState.FAIL or any(trial.user_attrs.get(name) for name in _OUTCOME_ATTRS):
         return False
     if len(trial.system_attrs.get("retry_history", [])) >= max_retry:
         return False
-    original = original_trial_number(trial)
-    return not any(other.number > trial.number and retried_trial_number(other) == original for other in trials)
+    return not any(trial.number in other.system_attrs.get("retry_history", []) for other in trials)
 
 
 def held_slots(trials: Sequence[optuna.trial.FrozenTrial], max_retry: int, exclude_original: int | None = None) -> int:
@@ -224,12 +258,19 @@ def held_slots(trials: Sequence[optuna.trial.FrozenTrial], max_retry: int, exclu
     )
 
 
+def _directly_retried(trial: optuna.trial.FrozenTrial) -> int | None:
+    """The number of the failed trial that ``trial`` is the retry of (the last of its retry history), or None."""
+    history = trial.system_attrs.get("retry_history", [])
+    return history[-1] if history else None
+
+
 def surplus_reason(number: int, trials: Sequence[optuna.trial.FrozenTrial], total: int, max_retry: int) -> str | None:
     """
     Why trial ``number``, just started, must not run in a study of ``total`` trials, or None if it may. Trial
     numbers are given out by the database in order, so the trials numbered before it decide (whatever the
     timing of the workers): it is surplus if they hold every slot (:func:`held_slots`; a retry takes the slot
-    its failed trial kept for it), or if it retries a trial that another retry already retries.
+    its failed trial kept for it), if an earlier trial is a retry of the same failed trial (two workers queued
+    one at the same moment), or if a trial of the same original is still running, queued or finished.
 
     :param number: The number of the trial
     :param trials: The study's trials, this one among them
@@ -237,8 +278,12 @@ def surplus_reason(number: int, trials: Sequence[optuna.trial.FrozenTrial], tota
     :param max_retry: How many times a failed trial is retried
     :return: The reason, for the message, or None
     """
-    original = original_trial_number(next(trial for trial in trials if trial.number == number))
+    this = next(trial for trial in trials if trial.number == number)
+    original = original_trial_number(this)
+    retried = _directly_retried(this)
     earlier = [trial for trial in trials if trial.number < number]
+    if retried is not None and any(_directly_retried(trial) == retried for trial in earlier):
+        return f"trial {retried} is already retried"
     if any(original_trial_number(trial) == original and trial.state in SLOT_STATES for trial in earlier):
         return f"trial {original} is already retried"
     if held_slots(earlier, max_retry, exclude_original=original) >= total:
@@ -250,8 +295,8 @@ def retry_failed_trials(study: optuna.Study, worker: str, max_retry: int, orphan
     """
     Queue the retry of every failed trial of ``worker`` that is owed one (:func:`owes_retry`), as the storage
     does for stale trials (the same callback): a trial Optuna marked FAIL because the database went away. With
-    ``orphaned_after``, the retries owed to any worker for longer than that many seconds too (their worker died
-    before it could queue them; the time is that of the worker clocks).
+    ``orphaned_after``, the retries owed to any worker that this process has seen owed for longer than that many
+    seconds of the database's clock too (their worker died before it could queue them).
 
     :param study: The study
     :param worker: The ``worker`` user attribute of the trials to retry
@@ -264,14 +309,17 @@ def retry_failed_trials(study: optuna.Study, worker: str, max_retry: int, orphan
     if callback is None:
         return
     trials = study.get_trials(deepcopy=False)
-    now = datetime.datetime.now()
-    for trial in trials:
-        if not owes_retry(trial, trials, max_retry):
-            continue
-        failed_at = trial.datetime_complete or now
-        orphaned = orphaned_after is not None and (now - failed_at).total_seconds() > orphaned_after
+    owed = [trial for trial in trials if owes_retry(trial, trials, max_retry)]
+    backend = getattr(storage, "_backend", storage)  # Optuna wraps a database storage in a cache
+    if isinstance(backend, _ReconnectingRDBStorage):
+        seconds_owed = backend.seconds_owed([trial._trial_id for trial in owed])
+    else:  # another storage: the workers' clocks, from the trial's end
+        now = datetime.datetime.now()
+        seconds_owed = {trial._trial_id: (now - (trial.datetime_complete or now)).total_seconds() for trial in owed}
+    for trial in owed:
+        orphaned = orphaned_after is not None and seconds_owed[trial._trial_id] > orphaned_after
         if trial.user_attrs.get("worker") == worker or orphaned:
-            callback(study, copy.deepcopy(trial))  # the callback extends the trial's retry history in place
+            callback(study, trial)
 
 
 def _first_line(error: BaseException) -> str:
