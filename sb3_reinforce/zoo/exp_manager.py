@@ -21,6 +21,7 @@ import os
 import socket
 import sys
 import time
+import uuid
 from pathlib import Path
 from typing import Any
 
@@ -54,6 +55,9 @@ ALGO_NAME = "reinforce"
 
 # Keys of a zoo config that the zoo itself consumes (they never reach the algorithm's constructor).
 _ZOO_KEYS = {"env", "tensorboard_log", "seed", "verbose", "device"}
+
+# Part of this process's worker name in a distributed study (a forked child differs by its PID)
+_PROCESS_TOKEN = uuid.uuid4().hex[:8]
 
 
 class SurplusTrial(RuntimeError):
@@ -296,8 +300,11 @@ class ReinforceExperimentManager(ExperimentManager):
 
     @staticmethod
     def _worker_name() -> str:
-        """This worker, as recorded in each trial's ``worker`` attribute."""
-        return f"{socket.gethostname()}:{os.getpid()}"
+        """
+        This worker, as recorded in each trial's ``worker`` attribute: ``host:token:pid``. The random token, drawn
+        once per process, tells apart workers that share a host name and a PID (containers on the host's network).
+        """
+        return f"{socket.gethostname()}:{_PROCESS_TOKEN}:{os.getpid()}"
 
     def _wait_for_database(self, error: BaseException, lost_since: float | None) -> float:
         now = time.monotonic()
