@@ -302,6 +302,19 @@ def test_a_trial_that_never_beat_is_failed_and_retried(tmp_path: Path) -> None:
     assert [retried_trial_number(t) for t in study.get_trials(states=(TrialState.WAITING,))] == [silent.number]
 
 
+def test_a_silent_trial_is_timed_per_study(tmp_path: Path) -> None:
+    # Looking for the stale trials of another study of the same storage does not restart a silent trial's clock
+    study = sqlite_study(tmp_path)  # heartbeat every 1 s, grace period 4 s
+    other = optuna.create_study(storage=study._storage, direction="maximize")
+    silent = add_trial(study, TrialState.RUNNING)
+    optuna.storages.fail_stale_trials(study)  # first seen silent now
+    for _ in range(5):
+        time.sleep(1.1)
+        optuna.storages.fail_stale_trials(other)
+    optuna.storages.fail_stale_trials(study)
+    assert study.trials[silent.number].state == TrialState.FAIL
+
+
 def test_a_trial_failed_by_its_own_error_is_not_retried(tmp_path: Path) -> None:
     # The objective records the error of a trial that failed by itself: retrying it would only fail again
     study = sqlite_study(tmp_path)

@@ -3,6 +3,7 @@ rl-baselines3-zoo integration: ``python -m sb3_reinforce.zoo`` (train, enjoy, be
 --optimize, distributed studies), the shipped zoo_configs, and the errors bad input gives.
 """
 
+import contextlib
 import importlib.util
 import os
 import shutil
@@ -30,6 +31,7 @@ from sb3_reinforce.zoo.hyperparams_opt import (
     suggest_n_envs,
     suggest_normalize_observations,
 )
+from sb3_reinforce.zoo.storage import owes_retry
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -478,3 +480,17 @@ def test_a_trial_that_fails_by_its_own_error_records_it(tmp_path: Path, monkeypa
     (trial,) = optuna.load_study(study_name="broken", storage=storage).trials
     assert trial.state == optuna.trial.TrialState.FAIL
     assert trial.user_attrs["error"] == "RuntimeError: the training broke"
+
+
+def test_a_trial_whose_objective_is_not_finite_records_it(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # Optuna records a NaN objective FAIL without an exception: a failure of the trial's own, not to be retried
+    monkeypatch.setattr(rl_zoo3.exp_manager.ExperimentManager, "objective", lambda self, trial: float("nan"))
+    storage = f"sqlite:///{tmp_path / 'study.db'}"
+    args = ["train", "--algo", "reinforce", "--env", "CartPole-v1", "-optimize", "--n-trials", "1", "-n", "600"]
+    args += ["--sampler", "random", "--no-optim-plots", "--storage", storage, "--study-name", "nan", "-f", str(tmp_path)]
+    with contextlib.suppress(ValueError):  # rl_zoo3's report of a study without a finished trial
+        main(args)
+    (trial,) = optuna.load_study(study_name="nan", storage=storage).trials
+    assert trial.state == optuna.trial.TrialState.FAIL
+    assert trial.user_attrs["error"] == "the objective value is nan"
+    assert not owes_retry(trial, [trial], max_retry=3)

@@ -17,6 +17,7 @@ rl_zoo3's ``ExperimentManager``, with what REINFORCE needs on top.
 
 import contextlib
 import inspect
+import math
 import os
 import socket
 import sys
@@ -179,7 +180,8 @@ class ReinforceExperimentManager(ExperimentManager):
         hyperparameters prunes the trial.
 
         A trial that fails by an error of its own (not one of the database) records it in its ``error`` user
-        attribute: it is not retried (:func:`~sb3_reinforce.zoo.storage.owes_retry`).
+        attribute: it is not retried (:func:`~sb3_reinforce.zoo.storage.owes_retry`); so does a trial whose
+        objective value is not finite (Optuna records it FAIL).
 
         :param trial: The Optuna trial
         :return: The last mean evaluation reward
@@ -188,7 +190,7 @@ class ReinforceExperimentManager(ExperimentManager):
         if self.max_total_trials is not None and is_database_url(self.storage):
             self._check_slot(trial, self.max_total_trials)
         try:
-            return self._train_trial(trial)
+            value = self._train_trial(trial)
         except (optuna.exceptions.TrialPruned, SurplusTrial):
             raise
         except Exception as error:
@@ -196,6 +198,9 @@ class ReinforceExperimentManager(ExperimentManager):
                 with contextlib.suppress(*DATABASE_ERRORS):
                     trial.set_user_attr("error", f"{type(error).__name__}: {error}"[:1000])
             raise
+        if not math.isfinite(value):  # Optuna records the trial FAIL: a failure of its own, not to be retried
+            trial.set_user_attr("error", f"the objective value is {value}")
+        return value
 
     def _train_trial(self, trial: optuna.Trial) -> float:
         if self.algo != ALGO_NAME:

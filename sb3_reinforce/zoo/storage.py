@@ -142,8 +142,8 @@ class _ReconnectingRDBStorage(RDBStorage):
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
-        #: Running trials without a heartbeat, with the database time they were first seen so
-        self._silent_since: dict[int, datetime.datetime] = {}
+        #: Per study, its running trials without a heartbeat, with the database time they were first seen so
+        self._silent_since: dict[int, dict[int, datetime.datetime]] = {}
         #: Failed trials owed a retry, with the database time they were first seen so
         self._owed_since: dict[int, datetime.datetime] = {}
 
@@ -177,8 +177,13 @@ class _ReconnectingRDBStorage(RDBStorage):
                 ~_models.TrialModel.heartbeats.any(),
             )
             silent_ids = {row[0] for row in silent.all()}
-        self._silent_since = {trial_id: self._silent_since.get(trial_id, now) for trial_id in silent_ids}
-        overdue = [trial_id for trial_id, since in self._silent_since.items() if (now - since).total_seconds() > grace_period]
+        seen = self._silent_since.get(study_id, {})
+        self._silent_since[study_id] = {trial_id: seen.get(trial_id, now) for trial_id in silent_ids}
+        overdue = [
+            trial_id
+            for trial_id, since in self._silent_since[study_id].items()
+            if (now - since).total_seconds() > grace_period
+        ]
         return stale + [trial_id for trial_id in overdue if trial_id not in stale]
 
     def record_heartbeat(self, trial_id: int) -> None:
