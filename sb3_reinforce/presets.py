@@ -1,6 +1,6 @@
 """
 The seed's agent as a preset: the TF1 policy-gradient agent of the blog post this project grew from
-(gabrielgarza/openai-gym-policy-gradient, see ``shared/seed/``).
+(github.com/gabrielgarza/openai-gym-policy-gradient).
 
     model = REINFORCE(env="LunarLander-v3", **seed_hyperparams("LunarLander-v3"))
 

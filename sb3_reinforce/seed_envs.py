@@ -1,5 +1,5 @@
 """
-The environment side of the seed's scripts (gabrielgarza/openai-gym-policy-gradient, see ``shared/seed/``):
+The environment side of the seed's scripts (github.com/gabrielgarza/openai-gym-policy-gradient):
 which time limit each ran with, and the CarRacing script's own pixel preprocessing and discrete actions.
 
     env = make_seed_env("CarRacing-v3")
