@@ -196,6 +196,18 @@ def test_an_orphaned_failure_is_retried_by_any_worker(tmp_path: Path) -> None:
     assert [retried_trial_number(t) for t in study.get_trials(states=(TrialState.WAITING,))] == [orphan.number]
 
 
+def test_an_orphaned_failure_is_timed_per_study(tmp_path: Path) -> None:
+    # Looking for the owed retries of another study of the same storage does not restart an orphan's clock
+    study = sqlite_study(tmp_path)
+    other = optuna.create_study(storage=study._storage, direction="maximize")
+    orphan = add_trial(study, TrialState.FAIL, "host:2")
+    retry_failed_trials(study, "host:1", max_retry=3, orphaned_after=1)  # first seen owed now
+    time.sleep(2.1)
+    retry_failed_trials(other, "host:1", max_retry=3, orphaned_after=1)
+    retry_failed_trials(study, "host:1", max_retry=3, orphaned_after=1)
+    assert [retried_trial_number(t) for t in study.get_trials(states=(TrialState.WAITING,))] == [orphan.number]
+
+
 def test_a_failed_trial_keeps_its_slot_for_its_retry(tmp_path: Path) -> None:
     # In the order the database numbers them: 0 done, 1 failed (owed a retry), 2 running; a total of 3
     study = sqlite_study(tmp_path)

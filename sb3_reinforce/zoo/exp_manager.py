@@ -195,12 +195,17 @@ class ReinforceExperimentManager(ExperimentManager):
             raise
         except Exception as error:
             if not caused_by_database(error):
-                with contextlib.suppress(*DATABASE_ERRORS):
-                    trial.set_user_attr("error", f"{type(error).__name__}: {error}"[:1000])
+                self._record_error(trial, f"{type(error).__name__}: {error}")
             raise
         if not math.isfinite(value):  # Optuna records the trial FAIL: a failure of its own, not to be retried
-            trial.set_user_attr("error", f"the objective value is {value}")
+            self._record_error(trial, f"the objective value is {value}")
         return value
+
+    @staticmethod
+    def _record_error(trial: optuna.Trial, message: str) -> None:
+        """Record the trial's own error in its ``error`` user attribute, where the database can still be reached."""
+        with contextlib.suppress(*DATABASE_ERRORS):
+            trial.set_user_attr("error", message[:1000])
 
     def _train_trial(self, trial: optuna.Trial) -> float:
         if self.algo != ALGO_NAME:

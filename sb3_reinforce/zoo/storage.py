@@ -22,7 +22,7 @@ import copy
 import datetime
 import time
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -44,6 +44,11 @@ if _OptunaRetryCallback is None:  # pragma: no cover (Optuna < 4.9)
 _OUTCOME_ATTRS = ("error", "surplus")
 
 
+def _ended_by_itself(trial: optuna.trial.FrozenTrial) -> bool:
+    """Whether ``trial`` failed by its own error or never ran (one of ``_OUTCOME_ATTRS``): it is not retried."""
+    return any(trial.user_attrs.get(name) for name in _OUTCOME_ATTRS)
+
+
 class _RetryCallback(_OptunaRetryCallback):
     """
     Optuna's retry of a failed trial (the same hyperparameters, a WAITING copy, at most ``max_retry`` times),
@@ -53,7 +58,7 @@ class _RetryCallback(_OptunaRetryCallback):
     """
 
     def __call__(self, study: optuna.Study, trial: optuna.trial.FrozenTrial) -> None:
-        if any(trial.user_attrs.get(name) for name in _OUTCOME_ATTRS):
+        if _ended_by_itself(trial):
             return
         super().__call__(study, copy.deepcopy(trial))
 
@@ -144,22 +149,30 @@ class _ReconnectingRDBStorage(RDBStorage):
         super().__init__(*args, **kwargs)
         #: Per study, its running trials without a heartbeat, with the database time they were first seen so
         self._silent_since: dict[int, dict[int, datetime.datetime]] = {}
-        #: Failed trials owed a retry, with the database time they were first seen so
-        self._owed_since: dict[int, datetime.datetime] = {}
+        #: Per study, its failed trials owed a retry, with the database time they were first seen so
+        self._owed_since: dict[int, dict[int, datetime.datetime]] = {}
 
     def _database_now(self) -> datetime.datetime:
         """The database's clock (every worker reads the same one, whatever its own clock or time zone)."""
         with _create_scoped_session(self.scoped_session, True) as session:
             return session.execute(sqlalchemy.func.now()).scalar_one().replace(tzinfo=None)
 
-    def seconds_owed(self, trial_ids: Sequence[int]) -> dict[int, float]:
+    def _seconds_seen(
+        self, first_seen: dict[int, dict[int, datetime.datetime]], study_id: int, trial_ids: Iterable[int]
+    ) -> dict[int, float]:
         """
-        How long each of ``trial_ids``, failed trials owed a retry, has been seen so by this storage, in seconds
-        of the database's clock (0 for a trial seen for the first time; trials no longer given are forgotten).
+        How long each of ``trial_ids`` (trials of study ``study_id``) has been seen in some state by this storage,
+        in seconds of the database's clock: 0 for a trial seen for the first time; the study's trials no longer
+        given are forgotten, those of other studies kept. ``first_seen`` is updated in place.
         """
         now = self._database_now()
-        self._owed_since = {trial_id: self._owed_since.get(trial_id, now) for trial_id in trial_ids}
-        return {trial_id: (now - since).total_seconds() for trial_id, since in self._owed_since.items()}
+        seen = first_seen.get(study_id, {})
+        first_seen[study_id] = {trial_id: seen.get(trial_id, now) for trial_id in trial_ids}
+        return {trial_id: (now - since).total_seconds() for trial_id, since in first_seen[study_id].items()}
+
+    def seconds_owed(self, study_id: int, trial_ids: Iterable[int]) -> dict[int, float]:
+        """How long each of ``trial_ids``, failed trials of the study owed a retry, has been seen so (seconds)."""
+        return self._seconds_seen(self._owed_since, study_id, trial_ids)
 
     def _get_stale_trial_ids(self, study_id: int) -> list[int]:
         """
@@ -169,21 +182,15 @@ class _ReconnectingRDBStorage(RDBStorage):
         """
         stale = super()._get_stale_trial_ids(study_id)
         grace_period = self.grace_period if self.grace_period is not None else 2 * (self.heartbeat_interval or 0)
-        now = self._database_now()
         with _create_scoped_session(self.scoped_session, True) as session:
             silent = session.query(_models.TrialModel.trial_id).filter(
                 _models.TrialModel.study_id == study_id,
                 _models.TrialModel.state == optuna.trial.TrialState.RUNNING,
                 ~_models.TrialModel.heartbeats.any(),
             )
-            silent_ids = {row[0] for row in silent.all()}
-        seen = self._silent_since.get(study_id, {})
-        self._silent_since[study_id] = {trial_id: seen.get(trial_id, now) for trial_id in silent_ids}
-        overdue = [
-            trial_id
-            for trial_id, since in self._silent_since[study_id].items()
-            if (now - since).total_seconds() > grace_period
-        ]
+            silent_ids = [row[0] for row in silent.all()]
+        seconds_silent = self._seconds_seen(self._silent_since, study_id, silent_ids)
+        overdue = [trial_id for trial_id, seconds in seconds_silent.items() if seconds > grace_period]
         return stale + [trial_id for trial_id in overdue if trial_id not in stale]
 
     def record_heartbeat(self, trial_id: int) -> None:
@@ -237,7 +244,7 @@ def owes_retry(trial: optuna.trial.FrozenTrial, trials: Sequence[optuna.trial.Fr
     and no trial of ``trials`` retries it yet (directly, or through a retry of its retry). Only the retries of this
     very trial count: a duplicate retry of the trial it retries (refused as surplus) does not.
     """
-    if trial.state != optuna.trial.TrialState.FAIL or any(trial.user_attrs.get(name) for name in _OUTCOME_ATTRS):
+    if trial.state != optuna.trial.TrialState.FAIL or _ended_by_itself(trial):
         return False
     if len(trial.system_attrs.get("retry_history", [])) >= max_retry:
         return False
@@ -317,7 +324,7 @@ def retry_failed_trials(study: optuna.Study, worker: str, max_retry: int, orphan
     owed = [trial for trial in trials if owes_retry(trial, trials, max_retry)]
     backend = getattr(storage, "_backend", storage)  # Optuna wraps a database storage in a cache
     if isinstance(backend, _ReconnectingRDBStorage):
-        seconds_owed = backend.seconds_owed([trial._trial_id for trial in owed])
+        seconds_owed = backend.seconds_owed(study._study_id, [trial._trial_id for trial in owed])
     else:  # another storage: the workers' clocks, from the trial's end
         now = datetime.datetime.now()
         seconds_owed = {trial._trial_id: (now - (trial.datetime_complete or now)).total_seconds() for trial in owed}
