@@ -1,6 +1,7 @@
 """The comparison command, its statistics and its bad-input errors."""
 
 import argparse
+import contextlib
 import json
 import os
 import re
@@ -490,22 +491,35 @@ def stop_and_check_workers(cmd: list[str], sig: str, training: "Callable[[], boo
 
     import psutil
 
-    proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    parent = psutil.Process(proc.pid)
-    deadline = time.monotonic() + 120
-    while not training():
-        assert proc.poll() is None and time.monotonic() < deadline, proc.stdout.read() if proc.stdout else ""
-        time.sleep(0.5)
-    children = parent.children(recursive=True)
-    assert children
-    if sig == "SIGINT":
-        os.killpg(proc.pid, signal.SIGINT)
-    else:
-        proc.send_signal(signal.SIGTERM)
-    output, _ = proc.communicate(timeout=60)
-    assert proc.returncode == 130, output
-    _, alive = psutil.wait_procs(children, timeout=30)
-    assert not alive, f"workers left running: {alive}"
+    # As a terminal's foreground job: SIGINT at its default, whatever this process inherited (a job started with `&`
+    # by a non-interactive shell ignores SIGINT, and so would the command: Python leaves an ignored SIGINT ignored)
+    proc = subprocess.Popen(
+        cmd,
+        start_new_session=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    try:
+        parent = psutil.Process(proc.pid)
+        deadline = time.monotonic() + 120
+        while not training():
+            assert proc.poll() is None and time.monotonic() < deadline, proc.stdout.read() if proc.stdout else ""
+            time.sleep(0.5)
+        children = parent.children(recursive=True)
+        assert children
+        if sig == "SIGINT":
+            os.killpg(proc.pid, signal.SIGINT)
+        else:
+            proc.send_signal(signal.SIGTERM)
+        output, _ = proc.communicate(timeout=60)
+        assert proc.returncode == 130, output
+        _, alive = psutil.wait_procs(children, timeout=30)
+        assert not alive, f"workers left running: {alive}"
+    finally:  # a failed check leaves nothing running
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
     return output
 
 
