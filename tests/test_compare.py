@@ -505,7 +505,9 @@ def stop_and_check_workers(cmd: list[str], sig: str, training: "Callable[[], boo
         parent = psutil.Process(proc.pid)
         deadline = time.monotonic() + 120
         while not training():
-            assert proc.poll() is None and time.monotonic() < deadline, proc.stdout.read() if proc.stdout else ""
+            if proc.poll() is not None:  # its output is complete only once it has exited
+                raise AssertionError(proc.stdout.read() if proc.stdout else "")
+            assert time.monotonic() < deadline, "not training after 120 s"
             time.sleep(0.5)
         children = parent.children(recursive=True)
         assert children
@@ -520,6 +522,9 @@ def stop_and_check_workers(cmd: list[str], sig: str, training: "Callable[[], boo
     finally:  # a failed check leaves nothing running
         with contextlib.suppress(ProcessLookupError):
             os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=30)
+        if proc.stdout:
+            proc.stdout.close()
     return output
 
 
