@@ -4,7 +4,7 @@
 # asks. Usage: run.sh [ALGO] (reinforce by default; ppo runs PPO's zoo entry at the same 1M budget on the same
 # seeds). The threshold is issue #13's 500 (Gymnasium's, compare's default, is 900). Resumable: finished runs
 # are skipped and interrupted ones continue from their last evaluation's checkpoint. Run from an activated venv;
-# about 4.5 to 6 hours of a core per 1M-step run here.
+# 4.3 to 7.5 hours of a core per 1M-step run here.
 cd "$(dirname "$0")/../../.." || exit 1
 algo=${1:-reinforce}
 args=(--env CarRacing-v3 --algos "$algo" --seeds 3 --first-seed 4000 --budget 1000000
