@@ -202,6 +202,14 @@ def ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+def ignore_stop_signals() -> None:
+    """Ignore SIGINT and SIGTERM (the message manager's initializer: the main process shuts it down last)."""
+    # A SIGTERM sent to the whole process group (`kill -- -PGID`, a container or session being stopped) must not
+    # take the manager down before the main process has stopped the workers: the pool's cleanup still talks to it.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+
+
 def _worker(spec: RunSpec, out_dir: Path, messages: Any) -> dict[str, Any]:
     return run(spec, out_dir, progress=lambda steps: messages.put((spec.name, steps)))
 
@@ -209,7 +217,7 @@ def _worker(spec: RunSpec, out_dir: Path, messages: Any) -> dict[str, Any]:
 def _run_all(todo: list[RunSpec], out_dir: Path, workers: int, show_progress: bool) -> None:
     context = mp.get_context("spawn")
     manager = SyncManager(ctx=context)
-    manager.start(ignore_sigint)
+    manager.start(ignore_stop_signals)
     n_workers = max(1, min(workers, len(todo)))
     with manager, context.Pool(n_workers, initializer=ignore_sigint, maxtasksperchild=1) as pool:
         messages = manager.Queue()
