@@ -470,8 +470,8 @@ def test_update_readme_markers(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM", "SIGTERM to the group"])
 def test_stopping_compare_stops_its_workers(tmp_path: Path, sig: str) -> None:
-    # Ctrl-C (SIGINT to the process group) or `kill PID` (SIGTERM to the main process only): the workers must
-    # not outlive the command, and the command exits as interrupted (130).
+    # Ctrl-C (SIGINT to the process group), `kill PID` (SIGTERM to the main process only) or SIGTERM to the whole
+    # process group: the workers must not outlive the command, and the command exits as interrupted (130).
     import sys
 
     cmd = [sys.executable, "-m", "sb3_reinforce.compare", "--env", "CartPole-v1", "--algos", "reinforce"]
@@ -484,7 +484,8 @@ def test_stopping_compare_stops_its_workers(tmp_path: Path, sig: str) -> None:
 def stop_and_check_workers(cmd: list[str], sig: str, training: "Callable[[], bool]") -> str:
     """
     Start ``cmd``, wait until ``training()``, send ``sig`` (SIGINT to the process group as Ctrl-C does, SIGTERM to
-    the main process as ``kill PID``), check it exits 130 and leaves no worker running; return its output.
+    the main process as ``kill PID``, or "SIGTERM to the group" as ``kill -- -PGID``), check it exits 130 and leaves
+    no worker running; return its output.
     """
     import signal
     import subprocess

@@ -206,7 +206,7 @@ def ignore_stop_signals() -> None:
     """Ignore SIGINT and SIGTERM (the message manager's initializer: the main process shuts it down last)."""
     # A SIGTERM sent to the whole process group (`kill -- -PGID`, a container or session being stopped) must not
     # take the manager down before the main process has stopped the workers: the pool's cleanup still talks to it.
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    ignore_sigint()
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
 
