@@ -16,6 +16,7 @@ import gymnasium as gym
 import optuna
 import pytest
 import rl_zoo3.exp_manager
+import sqlalchemy
 import yaml
 from stable_baselines3 import A2C, PPO, TD3
 from stable_baselines3.common.env_util import make_vec_env
@@ -496,3 +497,18 @@ def test_a_trial_whose_objective_is_not_finite_records_it(tmp_path: Path, monkey
     assert trial.state == optuna.trial.TrialState.FAIL
     assert trial.user_attrs["error"] == "the objective value is nan"
     assert not owes_retry(trial, [trial], max_retry=3)
+
+
+@pytest.mark.parametrize(
+    "sqlstate, collided",
+    [("42P07", True), ("42710", True), ("42601", False), (None, False)],
+    ids=["duplicate table", "duplicate object", "syntax error", "no code"],
+)
+def test_a_worker_that_lost_the_race_to_create_the_tables_tries_again(sqlstate: str | None, collided: bool) -> None:
+    # PostgreSQL answers the loser of two workers creating the tables at once with "relation ... already exists"
+    # (a ProgrammingError, measured in a fresh-clone CI run): that is a retry, any other error is the user's
+    from sb3_reinforce.zoo.storage import _created_by_another_worker
+
+    original = type("DriverError", (Exception,), {"sqlstate": sqlstate})()
+    error = sqlalchemy.exc.ProgrammingError("CREATE TABLE studies", {}, original)
+    assert _created_by_another_worker(error) is collided

@@ -339,6 +339,19 @@ def _first_line(error: BaseException) -> str:
     return str(cause).strip().splitlines()[0] if str(cause).strip() else type(cause).__name__
 
 
+# PostgreSQL's codes for a table or object (index, sequence) another session created first
+_DUPLICATE_SQLSTATES = {"42P07", "42710"}
+
+
+def _created_by_another_worker(error: Exception) -> bool:
+    """Whether creating the tables failed only because another worker created them at the same moment."""
+    if isinstance(error, sqlalchemy.exc.IntegrityError):
+        return True
+    original = getattr(error, "orig", None)
+    sqlstate = getattr(original, "sqlstate", None) or getattr(original, "pgcode", None)
+    return sqlstate in _DUPLICATE_SQLSTATES
+
+
 def open_database_storage(url: str, fault_tolerance: FaultTolerance) -> RDBStorage:
     """
     Connect to a database storage with heartbeats, retries of failed trials and reconnection.
@@ -370,11 +383,12 @@ def open_database_storage(url: str, fault_tolerance: FaultTolerance) -> RDBStora
                     grace_period=fault_tolerance.grace_period,
                     **{_RETRY_ARGUMENT: _RetryCallback(max_retry=fault_tolerance.max_retry)},
                 )
-        except sqlalchemy.exc.IntegrityError:
-            # Workers creating the tables of an empty database at the same moment collide: the first one wins,
-            # the others find the tables when they try again.
-            time.sleep(1.0 + attempt)
         except (*DATABASE_ERRORS, sqlalchemy.exc.DatabaseError) as error:
+            if _created_by_another_worker(error):
+                # Workers creating the tables of an empty database at the same moment collide: the first one
+                # wins, the others find the tables when they try again.
+                time.sleep(1.0 + attempt)
+                continue
             # At start-up, an unreachable server or refused credentials are a usage error, not a pause
             raise StorageError(f"--storage {shown}: cannot use the database: {_first_line(error)}") from None
     raise StorageError(f"--storage {shown}: could not create the study's tables (other workers kept colliding)")
