@@ -26,7 +26,6 @@ train it again).
 import argparse
 import csv
 import json
-import multiprocessing as mp
 import os
 import sys
 import time
@@ -266,17 +265,14 @@ def main(argv: list[str] | None = None) -> None:
         if not _finished(args.out / f"episodes_seed{s}.csv", args.episodes, args.max_steps, args.max_episode_steps)
     ]
     jobs = [(args.env, s, args.episodes, args.out, args.reward_floor, args.max_steps, args.max_episode_steps) for s in todo]
-    from sb3_reinforce.compare.cli import ignore_sigint, sigterm_as_keyboard_interrupt
+    from sb3_reinforce.compare.cli import run_stoppable, sigterm_as_keyboard_interrupt, worker_pool
     from sb3_reinforce.compare.render import render_seed
 
     # The pool is terminated on the way out of the block (Ctrl-C or SIGTERM): no worker outlives this process.
-    # The workers ignore Ctrl-C (it reaches the whole process group): only this process handles it.
+    # Ctrl-C and SIGTERM to the process group reach the workers too: only this process handles them (worker_pool).
     try:
-        with (
-            sigterm_as_keyboard_interrupt(),
-            mp.get_context("spawn").Pool(max(1, min(args.workers, len(jobs))), initializer=ignore_sigint) as pool,
-        ):
-            pool.starmap(run_seed, jobs)
+        with sigterm_as_keyboard_interrupt(), worker_pool(max(1, min(args.workers, len(jobs)))) as pool:
+            pool.starmap(run_stoppable, [(run_seed, *job) for job in jobs])
     except KeyboardInterrupt:
         print(
             f"Interrupted: the finished episodes are kept in {args.out}; run the same command to finish "

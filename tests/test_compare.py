@@ -481,11 +481,56 @@ def test_stopping_compare_stops_its_workers(tmp_path: Path, sig: str) -> None:
     stop_and_check_workers(cmd, sig, lambda: bool(list((tmp_path / "out").glob(f"{PER_RUN_DIR}/*.csv"))))
 
 
-def stop_and_check_workers(cmd: list[str], sig: str, training: "Callable[[], bool]") -> str:
+IDLE_WORKER_SCRIPT = """
+import os, sys, time
+from sb3_reinforce.compare.cli import run_stoppable, sigterm_as_keyboard_interrupt, worker_pool
+
+try:
+    with sigterm_as_keyboard_interrupt(), worker_pool(2, maxtasksperchild=1) as pool:
+        pool.apply(run_stoppable, (os.makedirs, sys.argv[1]))  # its worker leaves; a fresh one waits for a task
+        pool.apply(run_stoppable, (time.sleep, 600))
+except KeyboardInterrupt:
+    print("Interrupted")
+    sys.exit(130)
+"""
+
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM", "SIGTERM to the group"])
+def test_stopping_a_pool_with_a_waiting_worker(tmp_path: Path, sig: str) -> None:
+    # compare's pool once its last run is running (more workers than runs left), and seed's once a seed has ended: a
+    # worker waits for a task holding the task queue's lock. Killed there (SIGTERM to the group), it never released
+    # the lock and the main process hung in Pool.terminate (session 17's CarRacing verification).
+    import sys
+
+    import psutil
+
+    marker = tmp_path / "first_task_ran"
+    cmd = [sys.executable, "-c", IDLE_WORKER_SCRIPT, str(marker)]
+    seen: dict[int, float] = {}
+
+    def both_workers_waiting() -> bool:
+        # The first task has run, and two workers use no CPU between two looks (started, and waiting or sleeping)
+        if not marker.exists():
+            return False
+        workers = [p for p in psutil.Process(proc_pid[0]).children() if "spawn_main" in " ".join(p.cmdline())]
+        times = {p.pid: sum(p.cpu_times()[:2]) for p in workers}
+        still = len(times) == 2 and all(seen.get(pid) == t for pid, t in times.items())
+        seen.clear()
+        seen.update(times)
+        return still
+
+    proc_pid: list[int] = []
+    output = stop_and_check_workers(cmd, sig, both_workers_waiting, started=proc_pid.append)
+    assert output == "Interrupted\n", output
+
+
+def stop_and_check_workers(
+    cmd: list[str], sig: str, training: "Callable[[], bool]", started: "Callable[[int], None] | None" = None
+) -> str:
     """
     Start ``cmd``, wait until ``training()``, send ``sig`` (SIGINT to the process group as Ctrl-C does, SIGTERM to
     the main process as ``kill PID``, or "SIGTERM to the group" as ``kill -- -PGID``), check it exits 130 and leaves
-    no worker running; return its output.
+    no worker running; return its output. ``started``, if given, is told the command's PID as soon as it starts.
     """
     import signal
     import subprocess
@@ -503,6 +548,8 @@ def stop_and_check_workers(cmd: list[str], sig: str, training: "Callable[[], boo
         stderr=subprocess.STDOUT,
         text=True,
     )
+    if started is not None:
+        started(proc.pid)
     try:
         parent = psutil.Process(proc.pid)
         deadline = time.monotonic() + 120

@@ -20,10 +20,11 @@ import os
 import queue
 import signal
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from multiprocessing.managers import SyncManager
+from multiprocessing.pool import Pool
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import gymnasium as gym
 import pandas as pd
@@ -34,7 +35,16 @@ from sb3_reinforce.compare.report import PER_RUN_DIR, load_summaries, plot_learn
 from sb3_reinforce.compare.runner import RunSpec, run
 from sb3_reinforce.stats import SOLVE_THRESHOLDS
 
-__all__ = ["build_parser", "ignore_sigint", "main", "parse_specs", "sigterm_as_keyboard_interrupt", "write_outputs"]
+__all__ = [
+    "build_parser",
+    "ignore_sigint",
+    "main",
+    "parse_specs",
+    "run_stoppable",
+    "sigterm_as_keyboard_interrupt",
+    "worker_pool",
+    "write_outputs",
+]
 
 #: Evaluations per run when --eval-freq is not given.
 DEFAULT_EVALS_PER_RUN = 20
@@ -210,18 +220,49 @@ def ignore_stop_signals() -> None:
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
 
+_T = TypeVar("_T")
+
+
+def worker_pool(processes: int, maxtasksperchild: int | None = None) -> Pool:
+    """
+    A pool of ``processes`` spawned workers that ignore SIGINT and SIGTERM while they wait for a task; run each task
+    through :func:`run_stoppable`.
+
+    Ctrl-C, and SIGTERM sent to the whole process group (``kill -- -PGID``), reach every worker. A worker killed while
+    it waits for a task dies holding the task queue's lock, and ``Pool.terminate`` (on the way out of the pool's
+    ``with`` block) then waits for that lock forever; a waiting worker that ignores the signal leaves on the pool's
+    own signal instead. Only the main process handles the stop: it terminates the workers itself.
+
+    :param processes: Number of workers
+    :param maxtasksperchild: Tasks a worker runs before a fresh one replaces it (``None``: no limit)
+    :return: The pool, to use as a context manager
+    """
+    return mp.get_context("spawn").Pool(processes, initializer=ignore_stop_signals, maxtasksperchild=maxtasksperchild)
+
+
+def run_stoppable(fn: Callable[..., _T], *args: Any) -> _T:
+    """
+    Run ``fn(*args)`` in a worker of :func:`worker_pool` with SIGTERM at its default, so that ``Pool.terminate``
+    (SIGTERM) or a SIGTERM to the process group stops the task; the worker ignores SIGTERM again once it returns.
+    """
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    try:
+        return fn(*args)
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+
+
 def _worker(spec: RunSpec, out_dir: Path, messages: Any) -> dict[str, Any]:
     return run(spec, out_dir, progress=lambda steps: messages.put((spec.name, steps)))
 
 
 def _run_all(todo: list[RunSpec], out_dir: Path, workers: int, show_progress: bool) -> None:
-    context = mp.get_context("spawn")
-    manager = SyncManager(ctx=context)
+    manager = SyncManager(ctx=mp.get_context("spawn"))
     manager.start(ignore_stop_signals)
     n_workers = max(1, min(workers, len(todo)))
-    with manager, context.Pool(n_workers, initializer=ignore_sigint, maxtasksperchild=1) as pool:
+    with manager, worker_pool(n_workers, maxtasksperchild=1) as pool:
         messages = manager.Queue()
-        pending = [pool.apply_async(_worker, (spec, out_dir, messages)) for spec in todo]
+        pending = [pool.apply_async(run_stoppable, (_worker, spec, out_dir, messages)) for spec in todo]
         done_steps: dict[str, int] = {}
         with tqdm(total=sum(s.budget for s in todo), unit="step", disable=not show_progress, desc="compare") as bar:
             while pending:
