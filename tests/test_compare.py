@@ -512,25 +512,24 @@ def test_stopping_a_pool_with_a_waiting_worker(tmp_path: Path, sig: str) -> None
         # The first task has run, and two workers use no CPU between two looks (started, and waiting or sleeping)
         if not marker.exists():
             return False
-        workers = [p for p in psutil.Process(proc_pid[0]).children() if "spawn_main" in " ".join(p.cmdline())]
+        # This test's only command is the script: its pool's workers are the spawned processes below this one
+        below = psutil.Process().children(recursive=True)
+        workers = [p for p in below if "spawn_main" in " ".join(p.cmdline())]
         times = {p.pid: sum(p.cpu_times()[:2]) for p in workers}
         still = len(times) == 2 and all(seen.get(pid) == t for pid, t in times.items())
         seen.clear()
         seen.update(times)
         return still
 
-    proc_pid: list[int] = []
-    output = stop_and_check_workers(cmd, sig, both_workers_waiting, started=proc_pid.append)
+    output = stop_and_check_workers(cmd, sig, both_workers_waiting)
     assert output == "Interrupted\n", output
 
 
-def stop_and_check_workers(
-    cmd: list[str], sig: str, training: "Callable[[], bool]", started: "Callable[[int], None] | None" = None
-) -> str:
+def stop_and_check_workers(cmd: list[str], sig: str, training: "Callable[[], bool]") -> str:
     """
     Start ``cmd``, wait until ``training()``, send ``sig`` (SIGINT to the process group as Ctrl-C does, SIGTERM to
     the main process as ``kill PID``, or "SIGTERM to the group" as ``kill -- -PGID``), check it exits 130 and leaves
-    no worker running; return its output. ``started``, if given, is told the command's PID as soon as it starts.
+    no worker running; return its output.
     """
     import signal
     import subprocess
@@ -548,8 +547,6 @@ def stop_and_check_workers(
         stderr=subprocess.STDOUT,
         text=True,
     )
-    if started is not None:
-        started(proc.pid)
     try:
         parent = psutil.Process(proc.pid)
         deadline = time.monotonic() + 120
