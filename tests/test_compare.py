@@ -468,15 +468,18 @@ def test_update_readme_markers(tmp_path: Path) -> None:
     assert readme.read_text() == "a\n<!-- results:x/y -->\n| new |\n<!-- /results:x/y -->\nb\n"
 
 
+@pytest.mark.parametrize("vec_env", ["dummy", "subproc"])
 @pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM", "SIGTERM to the group"])
-def test_stopping_compare_stops_its_workers(tmp_path: Path, sig: str) -> None:
+def test_stopping_compare_stops_its_workers(tmp_path: Path, sig: str, vec_env: str) -> None:
     # Ctrl-C (SIGINT to the process group), `kill PID` (SIGTERM to the main process only) or SIGTERM to the whole
-    # process group: the workers must not outlive the command, and the command exits as interrupted (130).
+    # process group: the workers, and the environment processes of --vec-env subproc, must not outlive the command,
+    # and the command exits as interrupted (130).
     import sys
 
     cmd = [sys.executable, "-m", "sb3_reinforce.compare", "--env", "CartPole-v1", "--algos", "reinforce"]
     # 2 runs on 1 worker: the second waits in the pool's queue, which the pool's cleanup reads on the way out
     cmd += ["--seeds", "2", "--budget", "10000000", "--workers", "1", "--no-progress", "--out", str(tmp_path / "out")]
+    cmd += ["--vec-env", vec_env]
     # Stopped once a run is training: its per-run CSV exists (written at the first evaluation, step 0)
     stop_and_check_workers(cmd, sig, lambda: bool(list((tmp_path / "out").glob(f"{PER_RUN_DIR}/*.csv"))))
 

@@ -1,13 +1,18 @@
 """A comparison run interrupted after an evaluation resumes from its checkpoint instead of starting over."""
 
 import json
+import subprocess
+import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 import pytest
 import torch as th
+from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 from sb3_reinforce.compare import runner
 from sb3_reinforce.compare.cli import write_outputs
@@ -65,6 +70,47 @@ def test_interrupted_run_resumes_from_its_last_evaluation(tmp_path: Path, algo: 
     assert list(after["wall_time_s"]) == sorted(after["wall_time_s"])  # training time goes on counting
     assert after["episodes"].iloc[3] > after["episodes"].iloc[2]
     assert _checkpoint_files(runs_dir, spec) == []  # finished: no checkpoint left
+
+
+def test_a_run_may_resume_with_the_other_vec_env(tmp_path: Path) -> None:
+    # --vec-env is how the environments are stepped, not what the run is: a run started in one process goes on with
+    # one process per environment (SubprocVecEnv), and its summary says which part ran how
+    spec = RunSpec("CartPole-v1", "reinforce", 5, budget=3000, eval_freq=1000, n_eval_episodes=2)
+    runs_dir = tmp_path / PER_RUN_DIR
+    with pytest.raises(_Stop):
+        runner.run(spec, tmp_path, progress=_stop_after(2))
+    assert json.loads((runs_dir / f"{spec.name}.checkpoint.json").read_text())["vec_envs"] == ["dummy"]
+    built: list[Any] = []
+    original_build_run = runner.build_run
+
+    def spy(*args: Any) -> Any:
+        built.append(original_build_run(*args))
+        return built[-1]
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(runner, "build_run", spy)
+        summary = runner.run(spec, tmp_path, vec_env="subproc")
+    assert isinstance(built[0].train_env.unwrapped, SubprocVecEnv)
+    assert isinstance(built[0].eval_env.unwrapped, DummyVecEnv)  # one evaluation env: no process of its own
+    assert summary["vec_envs"] == ["dummy", "subproc"] and len(summary["resumed_at_steps"]) == 1
+    assert summary["steps"] >= 3000
+
+
+def test_cpu_time_counts_the_processes_below(tmp_path: Path) -> None:
+    # A SubprocVecEnv's environments run in processes of their own: a run's CPU seconds count them, while they run
+    # and once they have ended
+    busy = "import time\nend = time.process_time() + 1.0\nwhile time.process_time() < end: pass\n"
+    before = runner.process_tree_cpu_s()
+    child = subprocess.Popen([sys.executable, "-c", busy + "time.sleep(60)"])
+    try:
+        deadline = time.monotonic() + 60
+        while runner.process_tree_cpu_s() - before < 0.9:
+            assert time.monotonic() < deadline, "the child's CPU seconds were not counted"
+            time.sleep(0.1)
+    finally:
+        child.kill()
+        child.wait()
+    assert runner.process_tree_cpu_s() - before >= 0.9  # waited for: in this process's children_user/system
 
 
 def test_checkpoint_restores_weights_optimizers_steps_schedule_and_normalization(tmp_path: Path) -> None:

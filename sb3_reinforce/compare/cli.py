@@ -21,6 +21,7 @@ import queue
 import signal
 import sys
 from collections.abc import Callable, Iterator
+from multiprocessing.context import SpawnProcess
 from multiprocessing.managers import SyncManager
 from multiprocessing.pool import Pool
 from pathlib import Path
@@ -30,7 +31,7 @@ import gymnasium as gym
 import pandas as pd
 from tqdm import tqdm
 
-from sb3_reinforce.compare.experiment import DEFAULT_ALGOS, known_algos, read_entry
+from sb3_reinforce.compare.experiment import DEFAULT_ALGOS, VEC_ENV_TYPES, known_algos, read_entry
 from sb3_reinforce.compare.report import PER_RUN_DIR, load_summaries, plot_learning_curves, summary_table, to_markdown
 from sb3_reinforce.compare.runner import RunSpec, run
 from sb3_reinforce.stats import SOLVE_THRESHOLDS
@@ -97,6 +98,14 @@ def build_parser() -> argparse.ArgumentParser:
         type=Path,
         default=None,
         help="REINFORCE's zoo yml (default: the package's zoo_configs/reinforce.yml)",
+    )
+    parser.add_argument(
+        "--vec-env",
+        choices=VEC_ENV_TYPES,
+        default="dummy",
+        help="training environments of a run stepped in its own process (dummy) or one process each (subproc: a run "
+        "then keeps n_envs cores busy, for environments slow to step such as CarRacing-v3; not part of a run's "
+        "settings, so a run may resume with the other) (default: %(default)s)",
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     return parser
@@ -223,6 +232,26 @@ def ignore_stop_signals() -> None:
 _T = TypeVar("_T")
 
 
+class _WorkerProcess(SpawnProcess):
+    """A spawned pool worker that may start processes of its own (a ``SubprocVecEnv``): never daemonic."""
+
+    @property
+    def daemon(self) -> bool:
+        return False
+
+    @daemon.setter
+    def daemon(self, value: bool) -> None:
+        pass  # Pool marks its workers daemonic, and a daemonic process may not have children
+
+
+class _WorkerPool(Pool):
+    """A ``Pool`` of :class:`_WorkerProcess` workers."""
+
+    @staticmethod
+    def Process(ctx: Any, *args: Any, **kwds: Any) -> _WorkerProcess:  # type: ignore[override]  # a SpawnProcess
+        return _WorkerProcess(*args, **kwds)
+
+
 def worker_pool(processes: int, maxtasksperchild: int | None = None) -> Pool:
     """
     A pool of ``processes`` spawned workers that ignore SIGINT and SIGTERM while they wait for a task; run each task
@@ -233,11 +262,17 @@ def worker_pool(processes: int, maxtasksperchild: int | None = None) -> Pool:
     ``with`` block) then waits for that lock forever; a waiting worker that ignores the signal leaves on the pool's
     own signal instead. Only the main process handles the stop: it terminates the workers itself.
 
+    The workers are not daemonic, so that a task may start processes (``--vec-env subproc``'s environments): the
+    pool's ``with`` block still terminates them on the way out, and their environment processes end with them (SB3's
+    ``SubprocVecEnv`` workers are daemonic and leave when their parent's pipe closes).
+
     :param processes: Number of workers
     :param maxtasksperchild: Tasks a worker runs before a fresh one replaces it (``None``: no limit)
     :return: The pool, to use as a context manager
     """
-    return mp.get_context("spawn").Pool(processes, initializer=ignore_stop_signals, maxtasksperchild=maxtasksperchild)
+    return _WorkerPool(
+        processes, initializer=ignore_stop_signals, maxtasksperchild=maxtasksperchild, context=mp.get_context("spawn")
+    )
 
 
 def run_stoppable(fn: Callable[..., _T], *args: Any) -> _T:
@@ -252,17 +287,17 @@ def run_stoppable(fn: Callable[..., _T], *args: Any) -> _T:
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
 
-def _worker(spec: RunSpec, out_dir: Path, messages: Any) -> dict[str, Any]:
-    return run(spec, out_dir, progress=lambda steps: messages.put((spec.name, steps)))
+def _worker(spec: RunSpec, out_dir: Path, messages: Any, vec_env: str) -> dict[str, Any]:
+    return run(spec, out_dir, progress=lambda steps: messages.put((spec.name, steps)), vec_env=vec_env)
 
 
-def _run_all(todo: list[RunSpec], out_dir: Path, workers: int, show_progress: bool) -> None:
+def _run_all(todo: list[RunSpec], out_dir: Path, workers: int, show_progress: bool, vec_env: str = "dummy") -> None:
     manager = SyncManager(ctx=mp.get_context("spawn"))
     manager.start(ignore_stop_signals)
     n_workers = max(1, min(workers, len(todo)))
     with manager, worker_pool(n_workers, maxtasksperchild=1) as pool:
         messages = manager.Queue()
-        pending = [pool.apply_async(run_stoppable, (_worker, spec, out_dir, messages)) for spec in todo]
+        pending = [pool.apply_async(run_stoppable, (_worker, spec, out_dir, messages, vec_env)) for spec in todo]
         done_steps: dict[str, int] = {}
         with tqdm(total=sum(s.budget for s in todo), unit="step", disable=not show_progress, desc="compare") as bar:
             while pending:
@@ -325,7 +360,7 @@ def main(argv: list[str] | None = None) -> None:
     try:
         if todo:
             with sigterm_as_keyboard_interrupt():
-                _run_all(todo, out_dir, args.workers, show_progress=not args.no_progress)
+                _run_all(todo, out_dir, args.workers, show_progress=not args.no_progress, vec_env=args.vec_env)
     except KeyboardInterrupt:
         interrupted = True
     table = write_outputs(out_dir, args.env, threshold)

@@ -20,14 +20,26 @@ from typing import Any
 
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
-from stable_baselines3.common.vec_env import VecEnv
+from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 
-__all__ = ["DEFAULT_ALGOS", "EVAL_SEED_OFFSET", "BuiltRun", "ZooEntry", "build_run", "known_algos", "read_entry"]
+__all__ = [
+    "DEFAULT_ALGOS",
+    "EVAL_SEED_OFFSET",
+    "VEC_ENV_TYPES",
+    "BuiltRun",
+    "ZooEntry",
+    "build_run",
+    "known_algos",
+    "read_entry",
+]
 
 #: The algorithms compared when ``--algos`` is not given.
 DEFAULT_ALGOS = ("reinforce", "ppo", "a2c")
 #: The evaluation environment's seed is the run's seed plus this (the training envs use seed .. seed + n_envs - 1).
 EVAL_SEED_OFFSET = 10_000
+#: How a run steps its training environments (rl_zoo3's ``--vec-env``): in its own process (SB3's ``DummyVecEnv``),
+#: or one process per environment (``SubprocVecEnv``). The environments and their seeds are the same either way.
+VEC_ENV_TYPES = ("dummy", "subproc")
 
 
 def known_algos() -> list[str]:
@@ -47,7 +59,9 @@ def _quiet() -> Iterator[None]:
         yield
 
 
-def _manager(algo: str, env_id: str, seed: int, budget: int, log_folder: str, config: Path | None) -> Any:
+def _manager(
+    algo: str, env_id: str, seed: int, budget: int, log_folder: str, config: Path | None, vec_env: str = "dummy"
+) -> Any:
     from sb3_reinforce.zoo.exp_manager import ReinforceExperimentManager
 
     known_algos()  # registers REINFORCE
@@ -63,6 +77,7 @@ def _manager(algo: str, env_id: str, seed: int, budget: int, log_folder: str, co
         verbose=0,
         device="cpu",
         config=None if config is None else str(config),
+        vec_env_type=vec_env,
     )
 
 
@@ -123,12 +138,20 @@ class BuiltRun:
     entry: ZooEntry
 
 
-def build_run(algo: str, env_id: str, seed: int, budget: int, log_folder: Path, config: Path | None = None) -> BuiltRun:
+def build_run(
+    algo: str,
+    env_id: str,
+    seed: int,
+    budget: int,
+    log_folder: Path,
+    config: Path | None = None,
+    vec_env: str = "dummy",
+) -> BuiltRun:
     """
     Build one run through the zoo's experiment manager, as ``sb3-reinforce-zoo train --algo ALGO --env ENV
-    --seed SEED -n BUDGET`` would (its files go to ``log_folder``), plus an evaluation environment made by the
-    same manager (same wrappers, ``VecNormalize`` in evaluation mode, the standard ``env_kwargs``), seeded
-    ``seed + EVAL_SEED_OFFSET``.
+    --seed SEED -n BUDGET --vec-env VEC_ENV`` would (its files go to ``log_folder``), plus an evaluation environment
+    made by the same manager (same wrappers, ``VecNormalize`` in evaluation mode, the standard ``env_kwargs``),
+    seeded ``seed + EVAL_SEED_OFFSET``, always a ``DummyVecEnv`` (it has one environment).
 
     :param algo: An algorithm of :func:`known_algos`
     :param env_id: The environment id
@@ -136,14 +159,18 @@ def build_run(algo: str, env_id: str, seed: int, budget: int, log_folder: Path, 
     :param budget: Training steps
     :param log_folder: Where the zoo writes the run's own files (monitor logs, the config it used)
     :param config: The algorithm's yml file (default: as :func:`read_entry`)
+    :param vec_env: How the training environments are stepped, one of :data:`VEC_ENV_TYPES`
     :return: The run, ready to ``model.learn``
     """
-    manager = _manager(algo, env_id, seed, budget, str(log_folder), config)
+    if vec_env not in VEC_ENV_TYPES:
+        raise ValueError(f"vec_env must be one of {', '.join(VEC_ENV_TYPES)}, got {vec_env!r}")
+    manager = _manager(algo, env_id, seed, budget, str(log_folder), config, vec_env)
     with _quiet():
         built = manager.setup_experiment()
         assert built is not None, "setup_experiment() builds a model unless optimizing"
         model, saved = built
         manager.seed = seed + EVAL_SEED_OFFSET
+        manager.vec_env_class = DummyVecEnv
         try:
             eval_env = manager.create_envs(1, eval_env=True)
         finally:

@@ -14,8 +14,13 @@ streams restart: its curve is not the one an uninterrupted run would have drawn,
 resumed at (``resumed_at_steps``). Off-policy algorithms (SAC, TD3, DQN, ...) are not checkpointed: their
 replay buffer is not in ``model.save``, and an interrupted run of theirs starts over. The checkpoint files are
 deleted once the run is finished.
+
+With ``vec_env="subproc"`` the training environments step in processes of their own (SB3's ``SubprocVecEnv``); the
+run's CPU seconds and peak memory then count them too. A run may resume with the other kind: the environments and
+their seeds are the same, and its JSON lists the kind of each part (``vec_envs``, one per start and resume).
 """
 
+import contextlib
 import csv
 import io
 import json
@@ -41,7 +46,7 @@ from sb3_reinforce.compare.experiment import build_run
 from sb3_reinforce.compare.report import PER_RUN_DIR
 from sb3_reinforce.version import __version__
 
-__all__ = ["RESULT_COLUMNS", "Checkpoint", "ComparisonEvalCallback", "RunSpec", "code_version", "run"]
+__all__ = ["RESULT_COLUMNS", "Checkpoint", "ComparisonEvalCallback", "RunSpec", "code_version", "process_tree_cpu_s", "run"]
 
 #: Columns of ``results.csv``: one row per algorithm, seed and evaluation point.
 RESULT_COLUMNS = [
@@ -93,7 +98,8 @@ class ComparisonEvalCallback(BaseCallback):
     """
     Evaluate every ``eval_freq`` environment steps (and before training) on a separate environment, with
     deterministic and with sampled actions, and append a row to ``csv_path``. Training wall-clock time
-    excludes the evaluations; peak memory is the resident set size (RSS) of this process.
+    excludes the evaluations; peak memory is the resident set size (RSS) of this process plus its environment
+    processes (``SubprocVecEnv``), if any.
 
     :param spec: The run being evaluated
     :param eval_env: The evaluation environment (synchronized with a ``VecNormalize`` training env if any)
@@ -164,7 +170,7 @@ class ComparisonEvalCallback(BaseCallback):
 
     def _evaluate(self) -> None:
         eval_start = time.perf_counter()
-        self.peak_rss_mb = max(self.peak_rss_mb, self.process.memory_info().rss / 2**20)
+        self.peak_rss_mb = max(self.peak_rss_mb, _process_tree_rss_mb(self.process))
         sync_envs_normalization(self.training_env, self.eval_env)
         results = []
         for deterministic in (True, False):
@@ -201,6 +207,30 @@ class ComparisonEvalCallback(BaseCallback):
             self.progress(self.num_timesteps)
 
 
+def _process_tree_rss_mb(process: psutil.Process) -> float:
+    """Resident memory (MiB) of ``process`` and the processes below it (a ``SubprocVecEnv``'s environments)."""
+    total = process.memory_info().rss
+    for child in process.children(recursive=True):
+        with contextlib.suppress(psutil.NoSuchProcess):
+            total += child.memory_info().rss
+    return total / 2**20
+
+
+def process_tree_cpu_s(process: psutil.Process | None = None) -> float:
+    """
+    CPU seconds (user + system) of ``process`` (default: this one) and of every process below it: what a run with
+    ``SubprocVecEnv`` environments costs. A process that has ended counts once it has been waited for, in its
+    parent's ``children_user``/``children_system`` (a ``forkserver`` waits for the environment processes it forked).
+    """
+    process = process or psutil.Process()
+    total = 0.0
+    for member in [process, *process.children(recursive=True)]:
+        with contextlib.suppress(psutil.NoSuchProcess):
+            times = member.cpu_times()
+            total += times.user + times.system + times.children_user + times.children_system
+    return total
+
+
 #: ``VecNormalize``'s running statistics, saved with a checkpoint.
 _RUNNING_STATISTICS = ("obs_rms", "ret_rms")
 
@@ -210,18 +240,20 @@ class Checkpoint:
     A run's checkpoint in ``per_run/``: ``<name>.checkpoint.zip`` (``model.save``: weights, optimizer, step count,
     schedules), ``<name>.checkpoint_vecnormalize.pkl`` (the training env's ``VecNormalize`` statistics, if it
     has one) and ``<name>.checkpoint.json`` (the run's spec and hyperparameters, the callback's counters, the CPU
-    seconds so far and the steps of earlier resumes). Each file is written whole and then renamed into place, the
-    JSON last: a checkpoint without its JSON is incomplete and ignored.
+    seconds so far, the steps of earlier resumes and the kind of vectorized environment of each part). Each file is
+    written whole and then renamed into place, the JSON last: a checkpoint without its JSON is incomplete and ignored.
 
     :param runs_dir: The comparison's ``per_run/`` folder
     :param spec: The run
     :param hyperparams: The run's zoo entry, as recorded in its summary (a checkpoint made with other values
         is not resumed)
+    :param vec_env: The kind of vectorized training environment of this process (``"dummy"`` or ``"subproc"``)
     """
 
-    def __init__(self, runs_dir: Path, spec: RunSpec, hyperparams: dict[str, str]) -> None:
+    def __init__(self, runs_dir: Path, spec: RunSpec, hyperparams: dict[str, str], vec_env: str = "dummy") -> None:
         self.spec = spec
         self.hyperparams = hyperparams
+        self.vec_envs = [vec_env]
         self.model_path = runs_dir / f"{spec.name}.checkpoint.zip"
         self.vecnormalize_path = runs_dir / f"{spec.name}.checkpoint_vecnormalize.pkl"
         self.state_path = runs_dir / f"{spec.name}.checkpoint.json"
@@ -245,12 +277,13 @@ class Checkpoint:
             counters=counters,
             cpu_time_s=self.cpu_time_s(),
             resumed_at_steps=self.resumed_at_steps,
+            vec_envs=self.vec_envs,
         )
         _write_replacing(self.state_path, json.dumps(state, indent=2).encode())
 
     def cpu_time_s(self) -> float:
-        """CPU seconds of the run so far: this process's, plus those of the processes it resumes."""
-        return self.cpu_time_before + sum(psutil.Process().cpu_times()[:2])
+        """CPU seconds of the run so far: this process's (environment processes included), plus those it resumes."""
+        return self.cpu_time_before + process_tree_cpu_s()
 
     def load_state(self) -> dict[str, Any] | None:
         """
@@ -284,6 +317,9 @@ class Checkpoint:
             vecnormalize.__dict__.update(statistics)
         self.cpu_time_before = float(state["cpu_time_s"])
         self.resumed_at_steps = [*state["resumed_at_steps"], int(restored.num_timesteps)]
+        # Checkpoints written before the kind was recorded were all made with DummyVecEnv
+        earlier = state.get("vec_envs", ["dummy"] * (1 + len(state["resumed_at_steps"])))
+        self.vec_envs = [*earlier, self.vec_envs[-1]]
         return restored
 
     def delete(self) -> None:
@@ -332,7 +368,7 @@ def code_version() -> dict[str, Any]:
     return {"sb3_reinforce": __version__, "git_commit": commit, "git_dirty": None if status is None else status != ""}
 
 
-def run(spec: RunSpec, out_dir: Path, progress: Any = None) -> dict[str, Any]:
+def run(spec: RunSpec, out_dir: Path, progress: Any = None, vec_env: str = "dummy") -> dict[str, Any]:
     """
     Train and evaluate one run; write ``out_dir/per_run/<algo>_seed<seed>.csv`` (one row per evaluation,
     appended as it goes) and, once finished, ``<algo>_seed<seed>.json`` (the run's summary). A run with a
@@ -342,6 +378,8 @@ def run(spec: RunSpec, out_dir: Path, progress: Any = None) -> dict[str, Any]:
     :param spec: The run
     :param out_dir: The comparison's output folder
     :param progress: Called with the steps done so far after each evaluation (or None)
+    :param vec_env: How the training environments are stepped: ``"dummy"`` (in this process) or ``"subproc"``
+        (one process each); not part of the run's settings (a run may resume with the other)
     :return: The summary written to the JSON file
     """
     th.set_num_threads(1)
@@ -352,11 +390,11 @@ def run(spec: RunSpec, out_dir: Path, progress: Any = None) -> dict[str, Any]:
 
     with tempfile.TemporaryDirectory(prefix=f"{spec.name}-zoo-") as zoo_folder:
         config = None if spec.config_path is None else Path(spec.config_path)
-        built = build_run(spec.algo, spec.env_id, spec.seed, spec.budget, Path(zoo_folder), config)
+        built = build_run(spec.algo, spec.env_id, spec.seed, spec.budget, Path(zoo_folder), config, vec_env)
         model, eval_env = built.model, built.eval_env
         hyperparams = {key: str(value) for key, value in built.entry.hyperparams.items()}
         # Off-policy runs are not checkpointed: model.save leaves their replay buffer out
-        checkpoint = None if isinstance(model, OffPolicyAlgorithm) else Checkpoint(runs_dir, spec, hyperparams)
+        checkpoint = None if isinstance(model, OffPolicyAlgorithm) else Checkpoint(runs_dir, spec, hyperparams, vec_env)
         state = checkpoint.load_state() if checkpoint is not None and csv_path.exists() else None
         resumed = None
         if checkpoint is not None and state is not None:
@@ -387,9 +425,10 @@ def run(spec: RunSpec, out_dir: Path, progress: Any = None) -> dict[str, Any]:
         train_time_s=round(train_time, 3),
         steps_per_s=round(model.num_timesteps / train_time, 1),
         peak_rss_mb=round(callback.peak_rss_mb, 1),
-        # CPU seconds of this process (imports, training and evaluations), plus those of the processes it resumes:
-        # what the run costs on an idle core
-        cpu_time_s=round(sum(psutil.Process().cpu_times()[:2]) if checkpoint is None else checkpoint.cpu_time_s(), 1),
+        # CPU seconds of this process (imports, training and evaluations) and its environment processes, plus those
+        # of the processes it resumes: what the run costs on idle cores
+        cpu_time_s=round(process_tree_cpu_s() if checkpoint is None else checkpoint.cpu_time_s(), 1),
+        vec_envs=[vec_env] if checkpoint is None else checkpoint.vec_envs,
     )
     if checkpoint is not None and checkpoint.resumed_at_steps:
         summary["resumed_at_steps"] = checkpoint.resumed_at_steps
