@@ -1,6 +1,7 @@
 """A comparison run interrupted after an evaluation resumes from its checkpoint instead of starting over."""
 
 import json
+import multiprocessing as mp
 import subprocess
 import sys
 import time
@@ -75,11 +76,13 @@ def test_interrupted_run_resumes_from_its_last_evaluation(tmp_path: Path, algo: 
 def test_a_run_may_resume_with_the_other_vec_env(tmp_path: Path) -> None:
     # --vec-env is how the environments are stepped, not what the run is: a run started in one process goes on with
     # one process per environment (SubprocVecEnv), and its summary says which part ran how
-    spec = RunSpec("CartPole-v1", "reinforce", 5, budget=3000, eval_freq=1000, n_eval_episodes=2)
-    runs_dir = tmp_path / PER_RUN_DIR
+    spec = RunSpec("CartPole-v1", "reinforce", 5, budget=4000, eval_freq=1000, n_eval_episodes=2)
+    state_path = tmp_path / PER_RUN_DIR / f"{spec.name}.checkpoint.json"
     with pytest.raises(_Stop):
         runner.run(spec, tmp_path, progress=_stop_after(2))
-    assert json.loads((runs_dir / f"{spec.name}.checkpoint.json").read_text())["vec_envs"] == ["dummy"]
+    state = json.loads(state_path.read_text())
+    assert state.pop("vec_envs") == ["dummy"]
+    state_path.write_text(json.dumps(state))  # as a checkpoint written before the kind was recorded
     built: list[Any] = []
     original_build_run = runner.build_run
 
@@ -87,21 +90,26 @@ def test_a_run_may_resume_with_the_other_vec_env(tmp_path: Path) -> None:
         built.append(original_build_run(*args))
         return built[-1]
 
-    with pytest.MonkeyPatch.context() as patch:
+    with pytest.MonkeyPatch.context() as patch, pytest.raises(_Stop):
         patch.setattr(runner, "build_run", spy)
-        summary = runner.run(spec, tmp_path, vec_env="subproc")
+        runner.run(spec, tmp_path, progress=_stop_after(2), vec_env="subproc")  # training start, one evaluation
     assert isinstance(built[0].train_env.unwrapped, SubprocVecEnv)
     assert isinstance(built[0].eval_env.unwrapped, DummyVecEnv)  # one evaluation env: no process of its own
-    assert summary["vec_envs"] == ["dummy", "subproc"] and len(summary["resumed_at_steps"]) == 1
-    assert summary["steps"] >= 3000
+    built[0].train_env.close()
+    assert json.loads(state_path.read_text())["vec_envs"] == ["dummy", "subproc"]
+    summary = runner.run(spec, tmp_path)
+    assert summary["vec_envs"] == ["dummy", "subproc", "dummy"] and len(summary["resumed_at_steps"]) == 2
+    assert summary["steps"] >= 4000
 
 
-def test_cpu_time_counts_the_processes_below(tmp_path: Path) -> None:
+BUSY_FOR_ONE_CPU_SECOND = "import time\nend = time.process_time() + 1.0\nwhile time.process_time() < end: pass\n"
+
+
+def test_cpu_time_counts_the_processes_below() -> None:
     # A SubprocVecEnv's environments run in processes of their own: a run's CPU seconds count them, while they run
-    # and once they have ended
-    busy = "import time\nend = time.process_time() + 1.0\nwhile time.process_time() < end: pass\n"
+    # and once they have ended and been waited for
     before = runner.process_tree_cpu_s()
-    child = subprocess.Popen([sys.executable, "-c", busy + "time.sleep(60)"])
+    child = subprocess.Popen([sys.executable, "-c", BUSY_FOR_ONE_CPU_SECOND + "time.sleep(60)"])
     try:
         deadline = time.monotonic() + 60
         while runner.process_tree_cpu_s() - before < 0.9:
@@ -111,6 +119,21 @@ def test_cpu_time_counts_the_processes_below(tmp_path: Path) -> None:
         child.kill()
         child.wait()
     assert runner.process_tree_cpu_s() - before >= 0.9  # waited for: in this process's children_user/system
+
+
+def test_cpu_time_counts_processes_a_forkserver_waited_for() -> None:
+    # SubprocVecEnv's default start method: the environment processes are children of a forkserver (a child of this
+    # process that outlives them), which waits for them when they end
+    context = mp.get_context("forkserver")
+    warm_up = context.Process(target=exec, args=("pass",))  # starts the forkserver, if this process has none yet
+    warm_up.start()
+    warm_up.join()
+    before = runner.process_tree_cpu_s()
+    busy = context.Process(target=exec, args=(BUSY_FOR_ONE_CPU_SECOND,))
+    busy.start()
+    busy.join()
+    assert busy.exitcode == 0
+    assert runner.process_tree_cpu_s() - before >= 0.9
 
 
 def test_checkpoint_restores_weights_optimizers_steps_schedule_and_normalization(tmp_path: Path) -> None:

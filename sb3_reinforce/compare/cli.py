@@ -21,7 +21,6 @@ import queue
 import signal
 import sys
 from collections.abc import Callable, Iterator
-from multiprocessing.context import SpawnProcess
 from multiprocessing.managers import SyncManager
 from multiprocessing.pool import Pool
 from pathlib import Path
@@ -232,24 +231,14 @@ def ignore_stop_signals() -> None:
 _T = TypeVar("_T")
 
 
-class _WorkerProcess(SpawnProcess):
-    """A spawned pool worker that may start processes of its own (a ``SubprocVecEnv``): never daemonic."""
-
-    @property
-    def daemon(self) -> bool:
-        return False
-
-    @daemon.setter
-    def daemon(self, value: bool) -> None:
-        pass  # Pool marks its workers daemonic, and a daemonic process may not have children
-
-
-class _WorkerPool(Pool):
-    """A ``Pool`` of :class:`_WorkerProcess` workers."""
-
-    @staticmethod
-    def Process(ctx: Any, *args: Any, **kwds: Any) -> _WorkerProcess:  # type: ignore[override]  # a SpawnProcess
-        return _WorkerProcess(*args, **kwds)
+def _start_worker() -> None:
+    """A pool worker's initializer: ignore the stop signals while waiting (see :func:`worker_pool`), and allow the
+    worker to start processes of its own (``--vec-env subproc``'s environments)."""
+    ignore_stop_signals()
+    # Pool marks its workers daemonic, and a daemonic process may not have children. Only the worker's own view of
+    # the flag is cleared: the main process still sees daemonic workers, so that on its way out it terminates them
+    # instead of waiting for their runs to end.
+    mp.current_process().daemon = False
 
 
 def worker_pool(processes: int, maxtasksperchild: int | None = None) -> Pool:
@@ -262,17 +251,14 @@ def worker_pool(processes: int, maxtasksperchild: int | None = None) -> Pool:
     ``with`` block) then waits for that lock forever; a waiting worker that ignores the signal leaves on the pool's
     own signal instead. Only the main process handles the stop: it terminates the workers itself.
 
-    The workers are not daemonic, so that a task may start processes (``--vec-env subproc``'s environments): the
-    pool's ``with`` block still terminates them on the way out, and their environment processes end with them (SB3's
-    ``SubprocVecEnv`` workers are daemonic and leave when their parent's pipe closes).
+    A worker may start processes of its own (``--vec-env subproc``'s environments): when it is stopped, SB3's
+    ``SubprocVecEnv`` environment processes leave at their next wait for a command, which finds their pipe closed.
 
     :param processes: Number of workers
     :param maxtasksperchild: Tasks a worker runs before a fresh one replaces it (``None``: no limit)
     :return: The pool, to use as a context manager
     """
-    return _WorkerPool(
-        processes, initializer=ignore_stop_signals, maxtasksperchild=maxtasksperchild, context=mp.get_context("spawn")
-    )
+    return mp.get_context("spawn").Pool(processes, initializer=_start_worker, maxtasksperchild=maxtasksperchild)
 
 
 def run_stoppable(fn: Callable[..., _T], *args: Any) -> _T:

@@ -98,8 +98,8 @@ class ComparisonEvalCallback(BaseCallback):
     """
     Evaluate every ``eval_freq`` environment steps (and before training) on a separate environment, with
     deterministic and with sampled actions, and append a row to ``csv_path``. Training wall-clock time
-    excludes the evaluations; peak memory is the resident set size (RSS) of this process plus its environment
-    processes (``SubprocVecEnv``), if any.
+    excludes the evaluations; peak memory is the resident set size (RSS) of this process plus the unique set size
+    (USS: the memory each adds) of its environment processes (``SubprocVecEnv``), if any.
 
     :param spec: The run being evaluated
     :param eval_env: The evaluation environment (synchronized with a ``VecNormalize`` training env if any)
@@ -208,11 +208,15 @@ class ComparisonEvalCallback(BaseCallback):
 
 
 def _process_tree_rss_mb(process: psutil.Process) -> float:
-    """Resident memory (MiB) of ``process`` and the processes below it (a ``SubprocVecEnv``'s environments)."""
+    """
+    Memory (MiB) of ``process`` (its resident set size) and of the processes below it (a ``SubprocVecEnv``'s
+    environments: their unique set size, the memory only each of them holds; pages they share, such as the libraries
+    they load, are left out, so this is a lower bound where a process tree shares more than ``process``'s own pages).
+    """
     total = process.memory_info().rss
     for child in process.children(recursive=True):
-        with contextlib.suppress(psutil.NoSuchProcess):
-            total += child.memory_info().rss
+        with contextlib.suppress(psutil.NoSuchProcess, psutil.AccessDenied):
+            total += child.memory_full_info().uss
     return total / 2**20
 
 
