@@ -232,8 +232,10 @@ _T = TypeVar("_T")
 
 
 def _start_worker() -> None:
-    """A pool worker's initializer: ignore the stop signals while waiting (see :func:`worker_pool`), and allow the
-    worker to start processes of its own (``--vec-env subproc``'s environments)."""
+    """
+    A pool worker's initializer: ignore the stop signals while waiting (see :func:`worker_pool`), and allow the
+    worker to start processes of its own (``--vec-env subproc``'s environments).
+    """
     ignore_stop_signals()
     # Pool marks its workers daemonic, and a daemonic process may not have children. Only the worker's own view of
     # the flag is cleared: the main process still sees daemonic workers, so that on its way out it terminates them
