@@ -273,6 +273,9 @@ def main(argv: list[str] | None = None) -> None:
     try:
         with sigterm_as_keyboard_interrupt(), worker_pool(max(1, min(args.workers, len(jobs)))) as pool:
             pool.starmap(run_stoppable, [(run_seed, *job) for job in jobs])
+            # Ended normally: the waiting workers leave on the pool's sentinels (see worker_pool)
+            pool.close()
+            pool.join()
     except KeyboardInterrupt:
         print(
             f"Interrupted: the finished episodes are kept in {args.out}; run the same command to finish "

@@ -251,7 +251,10 @@ def worker_pool(processes: int, maxtasksperchild: int | None = None) -> Pool:
     Ctrl-C, and SIGTERM sent to the whole process group (``kill -- -PGID``), reach every worker. A worker killed while
     it waits for a task dies holding the task queue's lock, and ``Pool.terminate`` (on the way out of the pool's
     ``with`` block) then waits for that lock forever; a waiting worker that ignores the signal leaves on the pool's
-    own signal instead. Only the main process handles the stop: it terminates the workers itself.
+    own signal instead. Only the main process handles the stop: it terminates the workers itself. A pool that ends
+    normally must be closed and joined inside its ``with`` block: ``Pool.terminate`` (the block's exit) holds the task
+    queue's lock, so a worker still starting (a replacement under ``maxtasksperchild``, or one that never got a task)
+    would wait for that lock forever, ignoring the pool's SIGTERM, and the pool would wait for it.
 
     A worker may start processes of its own (``--vec-env subproc``'s environments): when it is stopped, SB3's
     ``SubprocVecEnv`` environment processes leave at their next wait for a command, which finds their pipe closed.
@@ -301,6 +304,9 @@ def _run_all(todo: list[RunSpec], out_dir: Path, workers: int, show_progress: bo
                     pending.remove(result)
                     result.get()  # re-raises a run's error here
                     bar.set_postfix(finished=f"{len(todo) - len(pending)}/{len(todo)}")
+        # Ended normally: the waiting workers leave on the pool's sentinels (see worker_pool)
+        pool.close()
+        pool.join()
 
 
 def write_outputs(out_dir: Path, env_id: str, threshold: float | None) -> pd.DataFrame | None:
