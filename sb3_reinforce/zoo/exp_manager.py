@@ -32,9 +32,9 @@ from rl_zoo3.exp_manager import ExperimentManager
 from rl_zoo3.utils import ALGOS
 from stable_baselines3.common.callbacks import BaseCallback
 
-from sb3_reinforce.buffers import RolloutLimitError
-from sb3_reinforce.reinforce import NonFiniteError
-from sb3_reinforce.validation import validate_hyperparameters
+from sb3_reinforce.reinforce.buffers import RolloutLimitError
+from sb3_reinforce.reinforce.finite_checks import NonFiniteError
+from sb3_reinforce.reinforce.hyperparameters import hyperparameter_defaults, validate_hyperparameters
 from sb3_reinforce.zoo.configs import config_path
 from sb3_reinforce.zoo.hyperparams_opt import NORMALIZE_OBSERVATIONS_KWARGS, suggest_n_envs, suggest_normalize_observations
 from sb3_reinforce.zoo.storage import (
@@ -90,9 +90,8 @@ def check_reinforce_values(hyperparams: dict[str, Any]) -> None:
     """
     from sb3_reinforce import REINFORCE
 
-    defaults = {name: p.default for name, p in inspect.signature(REINFORCE).parameters.items() if p.default is not p.empty}
-    names = inspect.signature(validate_hyperparameters).parameters
-    validate_hyperparameters(**{name: hyperparams.get(name, defaults[name]) for name in names})
+    defaults = hyperparameter_defaults(REINFORCE)
+    validate_hyperparameters({name: hyperparams.get(name, default) for name, default in defaults.items()})
 
 
 class ReinforceExperimentManager(ExperimentManager):

@@ -20,7 +20,7 @@ is evaluated again, with gradients, in ``train()``), so :class:`FastSampler` doe
      (or unscaling when the policy squashes) is left to the caller, as in SB3.
 
 gSDE, and policies that change how the distribution is built, keep SB3's path (see
-:meth:`~sb3_reinforce.policies.ReinforcePolicy.fast_sampler`).
+:meth:`~sb3_reinforce.reinforce.policies.ReinforcePolicy.fast_sampler`).
 """
 
 from typing import TYPE_CHECKING, Any
@@ -41,7 +41,7 @@ from stable_baselines3.common.utils import obs_as_tensor
 from torch import nn
 
 if TYPE_CHECKING:
-    from sb3_reinforce.policies import ReinforcePolicy
+    from sb3_reinforce.reinforce.policies import ReinforcePolicy
 
 __all__ = ["FastSampler"]
 
@@ -103,7 +103,7 @@ class _Noise:
 
 class FastSampler:
     """
-    Samples actions from a :class:`~sb3_reinforce.policies.ReinforcePolicy` with as few operations as possible
+    Samples actions from a :class:`~sb3_reinforce.reinforce.policies.ReinforcePolicy` with as few operations as possible
     (see the module docstring). Build one per rollout: it reads the policy's parameters in place, so it
     follows the optimizer's updates, but a parameter *replaced* by a new tensor is only seen by a new sampler.
 
