@@ -1,11 +1,8 @@
-import io
-import pathlib
 from typing import Any, ClassVar, TypeVar
 
 import numpy as np
 import torch as th
 from gymnasium import spaces
-from stable_baselines3.common.base_class import SelfBaseAlgorithm
 from stable_baselines3.common.buffers import RolloutBuffer
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
@@ -16,19 +13,18 @@ from stable_baselines3.common.vec_env import VecEnv
 from torch.nn import functional as F
 
 from sb3_reinforce.reinforce.buffers import DictEpisodeRolloutBuffer, EpisodeRolloutBuffer
-from sb3_reinforce.reinforce.finite_checks import check_step, check_terminal_observation, check_update
+from sb3_reinforce.reinforce.finite_checks import check_step, check_update
 from sb3_reinforce.reinforce.hyperparameters import check_spaces, hyperparameter_defaults, validate_hyperparameters
-from sb3_reinforce.reinforce.model_file import check_model_file
 from sb3_reinforce.reinforce.native_memory import HeapTrimmer
+from sb3_reinforce.reinforce.persistence import SaveWithRandomState
 from sb3_reinforce.reinforce.policies import CnnPolicy, MlpPolicy, MultiInputPolicy, ReinforcePolicy
 from sb3_reinforce.reinforce.returns import leave_one_out_baseline, normalize_returns
-from sb3_reinforce.reinforce.rng import get_rng_state, set_rng_state
-from sb3_reinforce.reinforce.value_fitting import ValueFitter
+from sb3_reinforce.reinforce.value_fitting import ValueFitter, bootstrap_truncated
 
 SelfREINFORCE = TypeVar("SelfREINFORCE", bound="REINFORCE")
 
 
-class REINFORCE(OnPolicyAlgorithm):
+class REINFORCE(SaveWithRandomState, OnPolicyAlgorithm):
     """
     REINFORCE: Monte-Carlo policy gradient (Williams, 1992), optionally with a learned value baseline.
 
@@ -264,24 +260,6 @@ class REINFORCE(OnPolicyAlgorithm):
         super()._update_current_progress_remaining(num_timesteps, total_timesteps)
         self._current_progress_remaining = max(0.0, self._current_progress_remaining)
 
-    def _bootstrap_truncated(self, rewards: np.ndarray, dones: np.ndarray, infos: list[dict[str, Any]]) -> np.ndarray:
-        """
-        With a value baseline, add ``gamma * V(s_T)`` to the last reward of every truncated episode, so that its
-        return estimates what the time limit cut off (as SB3's A2C/PPO do, GH#633). Without one, do nothing:
-        the truncated episode is treated as terminal.
-        """
-        if self.baseline != "value" or not dones.any():
-            return rewards
-        rewards = rewards.astype(np.float64)
-        for idx in np.flatnonzero(dones):
-            if infos[idx].get("TimeLimit.truncated", False) and infos[idx].get("terminal_observation") is not None:
-                check_terminal_observation(infos[idx]["terminal_observation"], int(idx), self.num_timesteps)
-                terminal_obs = self.policy.obs_to_tensor(infos[idx]["terminal_observation"])[0]
-                with th.no_grad():
-                    terminal_value = self.policy.predict_values(terminal_obs)[0].item()
-                rewards[idx] += self.gamma * terminal_value
-        return rewards
-
     def collect_rollouts(
         self,
         env: VecEnv,
@@ -342,7 +320,9 @@ class REINFORCE(OnPolicyAlgorithm):
             self.num_timesteps += env.num_envs
             n_steps += 1
             self._update_info_buffer(infos, dones)
-            rollout_buffer.add(self._last_obs, actions, self._bootstrap_truncated(rewards, dones, infos), dones)
+            if self.baseline == "value":  # a truncated episode's return goes on as gamma * V(s_T) (SB3 GH#633)
+                rewards = bootstrap_truncated(self.policy, self.gamma, rewards, dones, infos, self.num_timesteps)
+            rollout_buffer.add(self._last_obs, actions, rewards, dones)
             self._last_obs = new_obs
             self._last_episode_starts = dones
 
@@ -431,54 +411,6 @@ class REINFORCE(OnPolicyAlgorithm):
             )
         if hasattr(self.policy, "log_std"):
             self.logger.record("train/std", th.exp(self.policy.log_std).mean().item())
-
-    def save(
-        self,
-        path: str | pathlib.Path | io.BufferedIOBase,
-        exclude: Any = None,
-        include: Any = None,
-    ) -> None:
-        """
-        Save the model as SB3 does, plus the states of the torch, numpy and ``random`` generators, so that
-        loading a seeded model continues its random stream (see :meth:`load`).
-
-        :param path: path to the file where the agent should be saved
-        :param exclude: name of parameters that should be excluded in addition to the default ones
-        :param include: name of parameters that might be excluded but should be included anyway
-        """
-        self._rng_state = get_rng_state()
-        try:
-            super().save(path, exclude, include)
-        finally:
-            del self._rng_state
-
-    @classmethod
-    def load(
-        cls: type[SelfBaseAlgorithm],
-        path: str | pathlib.Path | io.BufferedIOBase,
-        env: GymEnv | None = None,
-        device: th.device | str = "auto",
-        custom_objects: dict[str, Any] | None = None,
-        print_system_info: bool = False,
-        force_reset: bool = True,
-        **kwargs: Any,
-    ) -> SelfBaseAlgorithm:
-        """
-        Load a model saved by :meth:`save` (SB3's format: only load files you trust, it unpickles objects;
-        see :func:`sb3_reinforce.load_weights` for a format that does not).
-
-        The file is checked first: a truncated or corrupted file raises
-        :class:`~sb3_reinforce.CorruptModelFileError`. For a model with a ``seed``, the random generators are restored
-        to their state at save time (instead of being reseeded from ``seed``, as SB3 does).
-
-        Takes SB3's ``BaseAlgorithm.load`` arguments.
-        """
-        check_model_file(path)
-        model = super().load(path, env, device, custom_objects, print_system_info, force_reset, **kwargs)
-        rng_state = model.__dict__.pop("_rng_state", None)
-        if rng_state is not None and model.seed is not None:
-            set_rng_state(rng_state)
-        return model
 
     def learn(
         self: SelfREINFORCE,

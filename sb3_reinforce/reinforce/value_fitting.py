@@ -1,5 +1,6 @@
 """
-Fitting the value baseline ``V(s)`` with steps of its own (REINFORCE's ``n_value_steps > 0``).
+The value baseline ``V(s)``: its steps of its own (REINFORCE's ``n_value_steps > 0``), and the bootstrap of
+truncated episodes with it.
 
 After the policy's one step on a batch, ``n_value_steps`` gradient steps regress ``V(s_t)`` on the batch's
 returns, ``L_V = mean_t (G_t - V(s_t))^2``, with an optimizer of their own over the value parameters only.
@@ -8,16 +9,17 @@ returns, ``L_V = mean_t (G_t - V(s_t))^2``, with an optimizer of their own over 
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
 import torch as th
 from stable_baselines3.common.policies import ActorCriticPolicy, BaseModel
 from stable_baselines3.common.type_aliases import Schedule
 from stable_baselines3.common.utils import update_learning_rate
 from torch.nn import functional as F
 
-from sb3_reinforce.reinforce.finite_checks import check_update
+from sb3_reinforce.reinforce.finite_checks import check_terminal_observation, check_update
 from sb3_reinforce.reinforce.policies import ReinforcePolicy
 
-__all__ = ["ValueFitter", "value_parameters"]
+__all__ = ["ValueFitter", "bootstrap_truncated", "value_parameters"]
 
 
 def value_parameters(policy: ActorCriticPolicy) -> list[th.nn.Parameter]:
@@ -97,3 +99,32 @@ class ValueFitter:
             )
             self.optimizer.step()
         return value_loss.detach()
+
+
+def bootstrap_truncated(
+    policy: ActorCriticPolicy, gamma: float, rewards: np.ndarray, dones: np.ndarray, infos: list[dict[str, Any]], timestep: int
+) -> np.ndarray:
+    """
+    Add ``gamma * V(s_T)`` to the last reward of every episode a time limit truncated, so that its return estimates
+    what the limit cut off (as SB3's A2C/PPO do, GH#633). Only with a value baseline: without one, a truncated
+    episode is treated as terminal (no estimate of the future exists).
+
+    :param policy: The policy, with its value head
+    :param gamma: The discount factor
+    :param rewards: One step's rewards (not modified)
+    :param dones: Which environments ended an episode at this step
+    :param infos: Their infos (``TimeLimit.truncated``, ``terminal_observation``)
+    :param timestep: The model's ``num_timesteps``, for error messages
+    :return: The rewards, bootstrapped where an episode was truncated
+    """
+    if not dones.any():
+        return rewards
+    rewards = rewards.astype(np.float64)
+    for idx in np.flatnonzero(dones):
+        if infos[idx].get("TimeLimit.truncated", False) and infos[idx].get("terminal_observation") is not None:
+            check_terminal_observation(infos[idx]["terminal_observation"], int(idx), timestep)
+            terminal_obs = policy.obs_to_tensor(infos[idx]["terminal_observation"])[0]
+            with th.no_grad():
+                terminal_value = policy.predict_values(terminal_obs)[0].item()
+            rewards[idx] += gamma * terminal_value
+    return rewards
