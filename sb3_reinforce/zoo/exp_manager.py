@@ -140,6 +140,8 @@ class ReinforceExperimentManager(ExperimentManager):
         self.on_envpool = self.envpool or kwargs.get("vec_env_type") == ENVPOOL
         if self.on_envpool:
             kwargs["vec_env_type"] = "dummy"  # rl_zoo3's own choice until create_envs
+            if hasattr(args, "vec_env"):
+                args.vec_env = ENVPOOL  # the run's args.yml says which backend trained it
         self._env_wrappers: list[WrapperSpec] = []
         super().__init__(args, algo, *positional, **kwargs)
         if self.on_envpool:
