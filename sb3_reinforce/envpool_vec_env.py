@@ -302,7 +302,7 @@ class EnvPoolVecEnv(VecEnv):
             reset_observations, reset_info = self._pool.reset(ended)
             first = self._transform_batch(reset_observations)
             for position, env_index in enumerate(np.asarray(reset_info["env_id"])):
-                infos[env_index]["terminal_observation"] = new_observations[env_index]
+                infos[env_index]["terminal_observation"] = new_observations[env_index].copy()  # not a view: overwritten below
                 infos[env_index]["TimeLimit.truncated"] = bool(truncated[env_index] and not terminated[env_index])
                 infos[env_index]["episode"] = self._end_episode(env_index)
                 self.reset_infos[env_index] = {}
