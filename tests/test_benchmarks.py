@@ -201,3 +201,13 @@ def test_value_steps_cost_tiny_budget(tmp_path: Path) -> None:
     assert [row["path"] for row in rows] == ["cached", "full"]
     assert all(int(row["steps"]) >= 500 for row in rows)
     assert all(0 < float(row[key]) < float(row["wall_s"]) for row in rows for key in ("value_steps_s", "env_step_s"))
+
+
+def test_vec_env_speed_tiny_budget(tmp_path: Path) -> None:
+    # One row per algorithm and way of stepping the training envs, interleaved, each with its share of time in the env
+    out = tmp_path / "vec_env_speed.csv"
+    args = ["--env", "CartPole-v1", "--algos", "reinforce", "--steps", "300", "--out", str(out)]
+    load("vec_env_speed").main(args)
+    rows = read_rows(out)
+    assert [row["vec_env"] for row in rows] == ["dummy", "subproc", "envpool"]
+    assert all(int(row["steps"]) >= 300 and 0 < float(row["env_share"]) < 1 for row in rows)
