@@ -345,6 +345,7 @@ def test_a_silent_trial_is_timed_per_study(tmp_path: Path) -> None:
         return study.trials[silent.number].state == TrialState.FAIL
 
     wait_until(look_at_both, "the silent trial failed while another study is looked at", interval=0.1)
+    assert waiting(study) == [silent.number] and not waiting(other)
 
 
 def test_a_trial_failed_by_its_own_error_is_not_retried(tmp_path: Path) -> None:
