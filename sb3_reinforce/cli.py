@@ -16,6 +16,7 @@ __all__ = ["main", "missing_extra"]
 EXTRA_MODULES = {
     "compare": ("rl_zoo3", "pandas", "matplotlib", "psutil", "tqdm", "yaml", "optuna"),
     "zoo": ("rl_zoo3", "requests", "pandas", "moviepy", "cv2", "optuna", "yaml"),
+    "envpool": ("envpool",),
 }
 
 
@@ -25,7 +26,7 @@ def missing_extra(command: str, extra: str) -> Iterator[None]:
     Turn a ``ModuleNotFoundError`` for a module of ``extra`` into one line naming the extra, and exit status 2.
 
     :param command: The command, for the message
-    :param extra: The optional dependency group (``compare``, ``zoo``) that provides the modules
+    :param extra: The optional dependency group (``compare``, ``zoo``, ``envpool``) that provides the modules
     """
     try:
         yield
@@ -56,7 +57,7 @@ def main(argv: list[str] | None = None) -> None:
         sys.exit(0 if argv else 2)
     command, rest = argv[0], argv[1:]
     if command == "compare":
-        with missing_extra("sb3-reinforce compare", "compare"):
+        with missing_extra("sb3-reinforce compare", "compare"), missing_extra("sb3-reinforce compare", "envpool"):
             from sb3_reinforce.compare.cli import main as compare_main
 
             compare_main(rest)

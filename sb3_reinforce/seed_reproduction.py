@@ -40,9 +40,9 @@ import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.monitor import Monitor
 
-from sb3_reinforce.buffers import RolloutLimitError
 from sb3_reinforce.presets import seed_hyperparams
 from sb3_reinforce.reinforce import REINFORCE
+from sb3_reinforce.reinforce.buffers import RolloutLimitError
 from sb3_reinforce.seed_envs import make_seed_env
 
 __all__ = ["EPISODE_COLUMNS", "RewardFloor", "build_parser", "main", "run_seed", "stopped_reason"]

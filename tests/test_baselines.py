@@ -13,8 +13,8 @@ from stable_baselines3.common.evaluation import evaluate_policy
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from sb3_reinforce import REINFORCE
-from sb3_reinforce.policies import CnnPolicy
-from sb3_reinforce.returns import discounted_returns, leave_one_out_baseline
+from sb3_reinforce.reinforce.policies import CnnPolicy
+from sb3_reinforce.reinforce.returns import discounted_returns, leave_one_out_baseline
 
 # --- the leave-one-out baseline, against a slow reference -------------------------------------------------
 
@@ -241,7 +241,7 @@ def test_value_steps_on_cached_features_match_the_full_network() -> None:
     for model, expected_calls in ((fast, 1), (full, 5)):
         calls: list[int] = []
         hook = model.policy.features_extractor.register_forward_hook(lambda *args, calls=calls: calls.append(1))
-        model._fit_value_baseline(observations, returns)
+        model.value_fitter.fit(observations, returns, 1.0, model.num_timesteps)
         hook.remove()
         assert len(calls) == expected_calls
 

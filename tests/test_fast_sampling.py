@@ -19,8 +19,8 @@ from scipy import stats
 from stable_baselines3.common.distributions import Distribution
 
 from sb3_reinforce import REINFORCE
-from sb3_reinforce.policies import ReinforcePolicy
-from sb3_reinforce.sampling import FastSampler
+from sb3_reinforce.reinforce.policies import ReinforcePolicy
+from sb3_reinforce.reinforce.sampling import FastSampler
 
 N_SAMPLES = 40_000
 ALPHA = 1e-3  # fixed seeds: a correct sampler passes with these exact draws, a wrong one fails by far
@@ -206,7 +206,7 @@ def test_fast_and_sb3_rollouts_both_learn_a_batch() -> None:
 def test_in_place_noise_is_torchs_stream(shape: tuple[int, int]) -> None:
     # The sampler draws into preallocated tensors: the values must be those of torch's allocating calls
     # (the stream that set_random_seed fixes and save/load restores), draw for draw.
-    from sb3_reinforce.sampling import _Noise
+    from sb3_reinforce.reinforce.sampling import _Noise
 
     noise = _Noise()
     th.manual_seed(1)

@@ -4,7 +4,7 @@ import pytest
 from stable_baselines3.common.envs import IdentityEnv
 
 from sb3_reinforce import REINFORCE
-from sb3_reinforce.native_memory import HeapTrimmer, trim_heap
+from sb3_reinforce.reinforce.native_memory import HeapTrimmer, trim_heap
 
 HAS_MALLOC_TRIM = trim_heap()  # glibc: True (a harmless call); elsewhere nothing happens
 

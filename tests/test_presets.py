@@ -6,7 +6,8 @@ import pytest
 import torch as th
 from torch import nn
 
-from sb3_reinforce import REINFORCE, seed_hyperparams
+from sb3_reinforce import REINFORCE
+from sb3_reinforce.presets import seed_hyperparams
 
 
 @pytest.mark.parametrize(

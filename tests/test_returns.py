@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sb3_reinforce import discounted_returns, normalize_returns
-from sb3_reinforce.returns import episode_bounds
+from sb3_reinforce.reinforce.returns import episode_bounds
 
 
 def reference_returns(rewards: list[float], ends: list[bool], gamma: float) -> list[float]:

@@ -17,8 +17,8 @@ from stable_baselines3.common.envs import IdentityEnv, IdentityEnvBox, SimpleMul
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from sb3_reinforce import REINFORCE
-from sb3_reinforce.safe_io import (
-    CorruptModelFileError,
+from sb3_reinforce.reinforce.model_file import CorruptModelFileError
+from sb3_reinforce.reinforce.weights_only import (
     UnsafeFileError,
     load_weights,
     save_weights,
@@ -205,7 +205,8 @@ def test_weights_only_config_is_checked(tmp_path: pathlib.Path, config_change: d
     save_weights(REINFORCE("MlpPolicy", "CartPole-v1"), tmp_path / "w.zip")
     with zipfile.ZipFile(tmp_path / "w.zip") as archive:
         config = json.loads(archive.read("config.json"))
-    config.update(config_change)
+    for key, value in config_change.items():  # policy_kwargs is one of the hyperparameters
+        (config["hyperparameters"] if key == "policy_kwargs" else config)[key] = value
     _rewrite(tmp_path / "w.zip", tmp_path / "bad.zip", "config.json", json.dumps(config).encode())
     with pytest.raises(UnsafeFileError, match=match):
         load_weights(tmp_path / "bad.zip")

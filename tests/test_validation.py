@@ -8,6 +8,7 @@ import torch as th
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from sb3_reinforce import REINFORCE, NonFiniteError
+from sb3_reinforce.reinforce.finite_checks import check_step, total_grad_norm
 from tests.envs import CountingEnv
 
 
@@ -79,17 +80,16 @@ def test_non_finite_env_output_raises(what: str) -> None:
 def test_finite_but_huge_env_output_is_accepted() -> None:
     # The finite check sums each step's rewards and observations first: sums that overflow to inf must not be
     # taken for a NaN/inf (the exact check after them finds every value finite).
-    model = REINFORCE("MlpPolicy", "CartPole-v1", seed=0)
     huge_obs, huge_rewards = np.full((2, 4), 3e38, dtype=np.float32), np.full(2, 1.7e308)
     assert not np.isfinite(huge_obs.sum()) and not np.isfinite(huge_rewards.sum())  # the sums overflow
-    model._check_finite(huge_obs, huge_rewards)  # no error
-    model._check_finite({"a": huge_obs, "b": np.zeros((2, 1), dtype=np.uint8)}, huge_rewards)
+    check_step(huge_obs, huge_rewards, 0)  # no error
+    check_step({"a": huge_obs, "b": np.zeros((2, 1), dtype=np.uint8)}, huge_rewards, 0)
     # Control: one NaN among the huge values is found
     huge_obs[1, 2] = math.nan
     with pytest.raises(NonFiniteError, match="Environment 1 returned a non-finite observation"):
-        model._check_finite(huge_obs, huge_rewards)
+        check_step(huge_obs, huge_rewards, 0)
     with pytest.raises(NonFiniteError, match="key 'a'"):
-        model._check_finite({"a": huge_obs, "b": np.zeros((2, 1), dtype=np.uint8)}, huge_rewards)
+        check_step({"a": huge_obs, "b": np.zeros((2, 1), dtype=np.uint8)}, huge_rewards, 0)
 
 
 def test_overflowing_loss_leaves_weights_unchanged() -> None:
@@ -115,14 +115,12 @@ def test_zero_variance_returns_stay_finite() -> None:
 def test_unclipped_grad_norm_equals_clip_grad_norms(torch_has_get_total_norm: bool, monkeypatch) -> None:
     # Without clipping, the logged and checked gradient norm is computed without clip_grad_norm_ (torch < 2.6
     # has no get_total_norm: the fallback must agree too), and non-finite gradients still show in it.
-    from sb3_reinforce.reinforce import _total_grad_norm
-
     if not torch_has_get_total_norm:
         monkeypatch.delattr(th.nn.utils, "get_total_norm", raising=False)
     net = th.nn.Sequential(th.nn.Linear(4, 8), th.nn.Tanh(), th.nn.Linear(8, 2), th.nn.Linear(2, 1))
     net[3].requires_grad_(False)  # a parameter without gradient is skipped, as clip_grad_norm_ does
     net(th.randn(5, 4)).sum().backward()
     expected = th.nn.utils.clip_grad_norm_(net.parameters(), float("inf"))
-    assert th.allclose(_total_grad_norm(net.parameters()), expected, rtol=1e-6)
+    assert th.allclose(total_grad_norm(net.parameters()), expected, rtol=1e-6)
     net[0].weight.grad[0, 0] = math.nan
-    assert not th.isfinite(_total_grad_norm(net.parameters()))
+    assert not th.isfinite(total_grad_norm(net.parameters()))

@@ -22,7 +22,8 @@ from stable_baselines3 import A2C, PPO, TD3
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
-from sb3_reinforce import REINFORCE, seed_hyperparams
+from sb3_reinforce import REINFORCE
+from sb3_reinforce.presets import seed_hyperparams
 from sb3_reinforce.zoo import config_path, main
 from sb3_reinforce.zoo.hyperparams_opt import (
     NORMALIZE_OBSERVATIONS,

@@ -30,7 +30,7 @@ import gymnasium as gym
 import pandas as pd
 from tqdm import tqdm
 
-from sb3_reinforce.compare.experiment import DEFAULT_ALGOS, VEC_ENV_TYPES, known_algos, read_entry
+from sb3_reinforce.compare.experiment import DEFAULT_ALGOS, VEC_ENV_TYPES, check_vec_env, known_algos, read_entry
 from sb3_reinforce.compare.report import PER_RUN_DIR, load_summaries, plot_learning_curves, summary_table, to_markdown
 from sb3_reinforce.compare.runner import RunSpec, run
 from sb3_reinforce.stats import solve_threshold
@@ -102,9 +102,10 @@ def build_parser() -> argparse.ArgumentParser:
         "--vec-env",
         choices=VEC_ENV_TYPES,
         default="dummy",
-        help="training environments of a run stepped in its own process (dummy) or one process each (subproc: a run "
-        "then keeps n_envs cores busy, for environments slow to step such as CarRacing-v3; not part of a run's "
-        "settings, so a run may resume with the other) (default: %(default)s)",
+        help="training environments of a run stepped in its own process (dummy), one process each (subproc: a run "
+        "then keeps n_envs cores busy, for environments slow to step such as CarRacing-v3), or EnvPool's C++ threads "
+        "(envpool: the envpool extra, the Box2D and classic-control tasks; evaluation stays on Gymnasium's env); not "
+        "part of a run's settings, so a run may resume with another (default: %(default)s)",
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     return parser
@@ -131,6 +132,7 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None]:
         gym.spec(args.env)
     except gym.error.Error as error:
         raise ValueError(f"Unknown environment {args.env!r}: {error}") from None
+    check_vec_env(args.vec_env, args.env)
     algos = list(dict.fromkeys(algo.strip().lower() for algo in args.algos.split(",") if algo.strip()))
     known = known_algos()
     unknown = [algo for algo in algos if algo not in known]
@@ -151,7 +153,7 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None]:
     config_paths = {algo: None for algo in algos}
     if args.reinforce_config is not None:
         config_paths["reinforce"] = args.reinforce_config
-    configs = {algo: read_entry(algo, args.env, config_paths[algo]) for algo in algos}
+    configs = {algo: read_entry(algo, args.env, config_paths[algo], args.vec_env) for algo in algos}
     if args.budget in ("ppo", "zoo"):
         ppo_budget = read_entry("ppo", args.env).n_timesteps if args.budget == "ppo" else 0
         budgets = {algo: ppo_budget or configs[algo].n_timesteps for algo in algos}

@@ -22,6 +22,8 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 
+from sb3_reinforce.envpool_vec_env import ENVPOOL, check_envpool_env
+
 __all__ = [
     "DEFAULT_ALGOS",
     "EVAL_SEED_OFFSET",
@@ -29,6 +31,7 @@ __all__ = [
     "BuiltRun",
     "ZooEntry",
     "build_run",
+    "check_vec_env",
     "known_algos",
     "read_entry",
 ]
@@ -38,8 +41,25 @@ DEFAULT_ALGOS = ("reinforce", "ppo", "a2c")
 #: The evaluation environment's seed is the run's seed plus this (the training envs use seed .. seed + n_envs - 1).
 EVAL_SEED_OFFSET = 10_000
 #: How a run steps its training environments (rl_zoo3's ``--vec-env``): in its own process (SB3's ``DummyVecEnv``),
-#: or one process per environment (``SubprocVecEnv``). The environments and their seeds are the same either way.
-VEC_ENV_TYPES = ("dummy", "subproc")
+#: one process per environment (``SubprocVecEnv``), or EnvPool's C++ threads (:mod:`sb3_reinforce.envpool_vec_env`,
+#: its own implementation of the same environments). The environments and their seeds are the same for the first
+#: two; the evaluation environment is Gymnasium's with all three.
+VEC_ENV_TYPES = ("dummy", "subproc", ENVPOOL)
+
+
+def check_vec_env(vec_env: str, env_id: str) -> None:
+    """
+    Check, before anything is built, that ``env_id``'s training environments can be stepped as ``vec_env`` says.
+
+    :param vec_env: One of :data:`VEC_ENV_TYPES`
+    :param env_id: The environment id
+    :raises ValueError: an unknown ``vec_env``, or an environment that EnvPool does not offer
+    :raises ModuleNotFoundError: ``envpool`` without EnvPool installed
+    """
+    if vec_env not in VEC_ENV_TYPES:
+        raise ValueError(f"vec_env must be one of {', '.join(VEC_ENV_TYPES)}, got {vec_env!r}")
+    if vec_env == ENVPOOL:
+        check_envpool_env(env_id)
 
 
 def known_algos() -> list[str]:
@@ -102,20 +122,22 @@ class ZooEntry:
     hyperparams: dict[str, Any] = field(default_factory=dict)
 
 
-def read_entry(algo: str, env_id: str, config: Path | None = None) -> ZooEntry:
+def read_entry(algo: str, env_id: str, config: Path | None = None, vec_env: str = "dummy") -> ZooEntry:
     """
     Read and check ``algo``'s entry for ``env_id`` without building anything: a missing file or entry, a key
-    the algorithm does not take or (for REINFORCE) a bad value raises a ``ValueError`` naming it.
+    the algorithm does not take, (for REINFORCE) a bad value or (on EnvPool) a wrapper without EnvPool equivalent
+    raises a ``ValueError`` naming it.
 
     :param algo: An algorithm of :func:`known_algos`
     :param env_id: The environment id
     :param config: The yml file (default: REINFORCE's zoo config, or the installed rl_zoo3's file for the algorithm)
+    :param vec_env: How the training environments will be stepped, one of :data:`VEC_ENV_TYPES`
     :return: The entry
     """
     known = known_algos()
     if algo not in known:
         raise ValueError(f"Unknown algorithm {algo!r}: choose among {', '.join(known)}")
-    manager = _manager(algo, env_id, 0, 0, os.devnull, config)
+    manager = _manager(algo, env_id, 0, 0, os.devnull, config, vec_env)
     with _quiet():
         try:
             hyperparams, saved = manager.read_hyperparameters()
@@ -162,8 +184,7 @@ def build_run(
     :param vec_env: How the training environments are stepped, one of :data:`VEC_ENV_TYPES`
     :return: The run, ready to ``model.learn``
     """
-    if vec_env not in VEC_ENV_TYPES:
-        raise ValueError(f"vec_env must be one of {', '.join(VEC_ENV_TYPES)}, got {vec_env!r}")
+    check_vec_env(vec_env, env_id)
     manager = _manager(algo, env_id, seed, budget, str(log_folder), config, vec_env)
     with _quiet():
         built = manager.setup_experiment()

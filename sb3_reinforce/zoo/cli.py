@@ -17,6 +17,7 @@ from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING, Any
 
 from sb3_reinforce.cli import missing_extra
+from sb3_reinforce.envpool_vec_env import ENVPOOL
 
 if TYPE_CHECKING:
     from sb3_reinforce.zoo.storage import FaultTolerance
@@ -137,6 +138,8 @@ USAGE = f"""usage: {PROG} {{{",".join(COMMANDS)}}} [zoo arguments ...]
 rl-baselines3-zoo (rl_zoo3) with REINFORCE registered as `--algo reinforce`.
 Every argument after the command is rl_zoo3's; `{PROG} COMMAND --help` lists them.
 With --algo reinforce, `train` reads sb3-reinforce's zoo_configs/reinforce.yml unless -conf/--conf-file is given.
+`train --vec-env envpool` steps the training environments in EnvPool (the envpool extra; the env ids it offers:
+sb3_reinforce.envpool_vec_env.ENVPOOL_ENV_IDS); evaluations stay on Gymnasium's environment.
 
 `train --optimize` with a database --storage (postgresql://USER:PASSWORD@HOST:5432/DB) also takes:
   --heartbeat-interval S  seconds between the heartbeats of a running trial (default: 60)
@@ -178,6 +181,16 @@ def _fault_tolerance_flags(args: Sequence[str]) -> tuple["FaultTolerance", list[
     return FaultTolerance(known.heartbeat_interval, known.grace_period, known.max_retry), rest
 
 
+def _vec_env_flag(args: Sequence[str]) -> tuple[bool, list[str]]:
+    """Take ``--vec-env envpool`` (this command's own choice) out of the zoo's arguments: whether it was given."""
+    parser = argparse.ArgumentParser(add_help=False)
+    parser.add_argument("--vec-env", type=str, default=None)
+    known, rest = parser.parse_known_args(args)
+    if known.vec_env == ENVPOOL:
+        return True, rest
+    return False, list(args)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """
     Run an rl_zoo3 command with REINFORCE registered.
@@ -201,7 +214,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{PROG}: error: rl_zoo3 is not installed ({error}): pip install 'sb3-reinforce[zoo]'", file=sys.stderr)
         return 2
     try:
-        with missing_extra(f"{PROG} {command}", "zoo"):
+        with missing_extra(f"{PROG} {command}", "zoo"), missing_extra(f"{PROG} {command}", "envpool"):
             return _run(command, args)
     except SystemExit as exit_:  # missing_extra's exit
         return int(exit_.code or 0)
@@ -213,14 +226,15 @@ def _run(command: str, args: list[str]) -> int:
     from sb3_reinforce.zoo.storage import StorageError
 
     register()
-    fault_tolerance = ReinforceExperimentManager.fault_tolerance
+    fault_tolerance, envpool = ReinforceExperimentManager.fault_tolerance, ReinforceExperimentManager.envpool
     saved_argv = sys.argv
     sys.argv = [f"{PROG} {command}", *args]
     try:
         if command in _ENV_COMMANDS:
             _check_env_id(args)
         if command == "train":
-            ReinforceExperimentManager.fault_tolerance, sys.argv[1:] = _fault_tolerance_flags(args)
+            ReinforceExperimentManager.fault_tolerance, rest = _fault_tolerance_flags(args)
+            ReinforceExperimentManager.envpool, sys.argv[1:] = _vec_env_flag(rest)
         COMMANDS[command]()
     except (ZooUsageError, StorageError) as error:
         print(f"{PROG} {command}: error: {error}", file=sys.stderr)
@@ -233,5 +247,5 @@ def _run(command: str, args: list[str]) -> int:
         return 1
     finally:
         sys.argv = saved_argv
-        ReinforceExperimentManager.fault_tolerance = fault_tolerance
+        ReinforceExperimentManager.fault_tolerance, ReinforceExperimentManager.envpool = fault_tolerance, envpool
     return 0

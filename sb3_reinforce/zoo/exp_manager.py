@@ -13,6 +13,8 @@ rl_zoo3's ``ExperimentManager``, with what REINFORCE needs on top.
   trials of dead workers and reconnects after a dropped connection (see :mod:`sb3_reinforce.zoo.storage`);
   with ``--max-total-trials``, every worker keeps going until the study holds exactly that many finished
   trials, running the retries of workers that died.
+- ``vec_env_type="envpool"`` (``--vec-env envpool``) steps the training environments in EnvPool
+  (:mod:`sb3_reinforce.envpool_vec_env`), the entry's wrappers done there; evaluation environments stay Gymnasium's.
 """
 
 import contextlib
@@ -31,10 +33,12 @@ import yaml
 from rl_zoo3.exp_manager import ExperimentManager
 from rl_zoo3.utils import ALGOS
 from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 
-from sb3_reinforce.buffers import RolloutLimitError
-from sb3_reinforce.reinforce import NonFiniteError
-from sb3_reinforce.validation import validate_hyperparameters
+from sb3_reinforce.envpool_vec_env import ENVPOOL, WrapperSpec, check_envpool_env, envpool_vec_env_class, split_wrappers
+from sb3_reinforce.reinforce.buffers import RolloutLimitError
+from sb3_reinforce.reinforce.finite_checks import NonFiniteError
+from sb3_reinforce.reinforce.hyperparameters import hyperparameter_defaults, validate_hyperparameters
 from sb3_reinforce.zoo.configs import config_path
 from sb3_reinforce.zoo.hyperparams_opt import NORMALIZE_OBSERVATIONS_KWARGS, suggest_n_envs, suggest_normalize_observations
 from sb3_reinforce.zoo.storage import (
@@ -82,6 +86,23 @@ def accepted_arguments(algo_class: type) -> set[str] | None:
     return set(parameters)
 
 
+def wrapper_specs(entry: Any) -> list[WrapperSpec]:
+    """
+    The classes and arguments of a zoo entry's ``env_wrapper`` (a name, or a list of names and ``{name: kwargs}``).
+
+    :param entry: The entry's ``env_wrapper`` value (None: no wrapper)
+    :return: (class, keyword arguments) pairs, innermost first
+    """
+    from rl_zoo3.utils import get_class_by_name
+
+    items = [] if entry is None else entry if isinstance(entry, list) else [entry]
+    specs = []
+    for item in items:
+        name, kwargs = next(iter(item.items())) if isinstance(item, dict) else (item, {})
+        specs.append((get_class_by_name(name), dict(kwargs or {})))
+    return specs
+
+
 def check_reinforce_values(hyperparams: dict[str, Any]) -> None:
     """
     Run REINFORCE's argument checks on a config's values, constructor defaults filling the gaps.
@@ -90,9 +111,8 @@ def check_reinforce_values(hyperparams: dict[str, Any]) -> None:
     """
     from sb3_reinforce import REINFORCE
 
-    defaults = {name: p.default for name, p in inspect.signature(REINFORCE).parameters.items() if p.default is not p.empty}
-    names = inspect.signature(validate_hyperparameters).parameters
-    validate_hyperparameters(**{name: hyperparams.get(name, defaults[name]) for name in names})
+    defaults = hyperparameter_defaults(REINFORCE)
+    validate_hyperparameters({name: hyperparams.get(name, default) for name, default in defaults.items()})
 
 
 class ReinforceExperimentManager(ExperimentManager):
@@ -105,6 +125,9 @@ class ReinforceExperimentManager(ExperimentManager):
     fault_tolerance: FaultTolerance = FaultTolerance()
     #: How long a worker keeps trying to reach a database that went away before it gives up (seconds).
     reconnect_timeout: float = 300.0
+    #: Train on EnvPool whatever ``vec_env_type`` says (``sb3-reinforce-zoo train --vec-env envpool`` sets it:
+    #: rl_zoo3's own flag offers dummy and subproc only).
+    envpool: bool = False
 
     def __init__(self, args: Any, algo: str, *positional: Any, config: str | None = None, **kwargs: Any) -> None:
         if config is None and algo == ALGO_NAME:
@@ -112,7 +135,19 @@ class ReinforceExperimentManager(ExperimentManager):
         if config is not None and config.endswith((".yml", ".yaml")) and not os.path.isfile(config):
             raise ZooUsageError(f"Hyperparameter file {config} (-conf/--conf-file) does not exist")
         kwargs["config"] = config
+        #: Whether the training environments step in EnvPool
+        self.on_envpool = self.envpool or kwargs.get("vec_env_type") == ENVPOOL
+        if self.on_envpool:
+            kwargs["vec_env_type"] = "dummy"  # rl_zoo3's own choice until create_envs
+            if hasattr(args, "vec_env"):
+                args.vec_env = ENVPOOL  # the run's args.yml says which backend trained it
+        self._env_wrappers: list[WrapperSpec] = []
         super().__init__(args, algo, *positional, **kwargs)
+        if self.on_envpool:
+            try:
+                check_envpool_env(self.env_name.gym_id)
+            except ValueError as error:
+                raise ZooUsageError(f"--vec-env envpool: {error}") from error
 
     def read_hyperparameters(self) -> tuple[dict[str, Any], dict[str, Any]]:
         """
@@ -142,10 +177,16 @@ class ReinforceExperimentManager(ExperimentManager):
         return hyperparams, saved_hyperparams
 
     def _preprocess_hyperparams(self, hyperparams: dict[str, Any]) -> tuple[dict[str, Any], Any, list[BaseCallback], Any]:
-        processed, env_wrapper, callbacks, vec_env_wrapper = super()._preprocess_hyperparams(hyperparams)
         where = f"{self.config} [{self.env_name.gym_id}]"
         if self.custom_hyperparams:
             where += f" with -params {' '.join(sorted(self.custom_hyperparams))}"
+        if self.on_envpool:
+            self._env_wrappers = wrapper_specs(hyperparams.get("env_wrapper"))
+            try:
+                split_wrappers(self._env_wrappers)
+            except ValueError as error:
+                raise ZooUsageError(f"{where}: {error}") from error
+        processed, env_wrapper, callbacks, vec_env_wrapper = super()._preprocess_hyperparams(hyperparams)
         algo_class = ALGOS[self.algo]
         accepted = accepted_arguments(algo_class)
         reserved = sorted(set(processed) & _ZOO_KEYS)
@@ -171,6 +212,32 @@ class ReinforceExperimentManager(ExperimentManager):
             except ValueError as error:
                 raise ZooUsageError(f"{where}: {error}") from error
         return processed, env_wrapper, callbacks, vec_env_wrapper
+
+    def create_envs(self, n_envs: int, eval_env: bool = False, no_log: bool = False) -> VecEnv:
+        """
+        rl_zoo3's environments; on EnvPool, the training ones are EnvPool's (with the entry's wrappers, see
+        :func:`~sb3_reinforce.envpool_vec_env.make_envpool_vec_env`) and the evaluation ones stay Gymnasium's
+        (``DummyVecEnv``), the reference for scores.
+
+        :param n_envs: Number of environments
+        :param eval_env: Whether they evaluate
+        :param no_log: No monitor file
+        :return: The environments, wrapped as the entry says (``VecNormalize``, frame stack, image transpose)
+        """
+        if not self.on_envpool:
+            return super().create_envs(n_envs, eval_env, no_log)
+        vec_env_class = self.vec_env_class
+        if eval_env:
+            self.vec_env_class = DummyVecEnv
+        else:
+            monitor_dir = None if no_log else self.save_path
+            self.vec_env_class = envpool_vec_env_class(  # type: ignore[assignment]
+                self.env_name.gym_id, self._env_wrappers, self.env_kwargs, monitor_dir, self.monitor_kwargs
+            )
+        try:
+            return super().create_envs(n_envs, eval_env, no_log)
+        finally:
+            self.vec_env_class = vec_env_class
 
     def objective(self, trial: optuna.Trial) -> float:
         """

@@ -9,7 +9,7 @@ from gymnasium import spaces
 from stable_baselines3.common.buffers import BaseBuffer
 from stable_baselines3.common.type_aliases import TensorDict
 
-from sb3_reinforce.returns import discounted_returns, episode_bounds
+from sb3_reinforce.reinforce.returns import discounted_returns, episode_bounds
 
 __all__ = [
     "DictEpisodeRolloutBuffer",

@@ -1,52 +1,30 @@
-import io
-import pathlib
-from collections.abc import Callable, Iterable
 from typing import Any, ClassVar, TypeVar
 
 import numpy as np
 import torch as th
 from gymnasium import spaces
-from stable_baselines3.common.base_class import SelfBaseAlgorithm
 from stable_baselines3.common.buffers import RolloutBuffer
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
-from stable_baselines3.common.policies import BaseModel, BasePolicy
+from stable_baselines3.common.policies import BasePolicy
 from stable_baselines3.common.type_aliases import GymEnv, MaybeCallback, Schedule
-from stable_baselines3.common.utils import FloatSchedule, explained_variance, obs_as_tensor, update_learning_rate
+from stable_baselines3.common.utils import FloatSchedule, explained_variance, obs_as_tensor
 from stable_baselines3.common.vec_env import VecEnv
 from torch.nn import functional as F
 
-from sb3_reinforce.buffers import DictEpisodeRolloutBuffer, EpisodeRolloutBuffer
-from sb3_reinforce.native_memory import HeapTrimmer
-from sb3_reinforce.policies import CnnPolicy, MlpPolicy, MultiInputPolicy, ReinforcePolicy
-from sb3_reinforce.returns import leave_one_out_baseline, normalize_returns
-from sb3_reinforce.rng import get_rng_state, set_rng_state
-from sb3_reinforce.safe_io import check_model_file
-from sb3_reinforce.validation import check_spaces, validate_hyperparameters
+from sb3_reinforce.reinforce.buffers import DictEpisodeRolloutBuffer, EpisodeRolloutBuffer
+from sb3_reinforce.reinforce.finite_checks import check_step, check_update
+from sb3_reinforce.reinforce.hyperparameters import check_spaces, hyperparameter_defaults, validate_hyperparameters
+from sb3_reinforce.reinforce.native_memory import HeapTrimmer
+from sb3_reinforce.reinforce.persistence import SaveWithRandomState
+from sb3_reinforce.reinforce.policies import CnnPolicy, MlpPolicy, MultiInputPolicy, ReinforcePolicy
+from sb3_reinforce.reinforce.returns import leave_one_out_baseline, normalize_returns
+from sb3_reinforce.reinforce.value_fitting import ValueFitter, bootstrap_truncated
 
 SelfREINFORCE = TypeVar("SelfREINFORCE", bound="REINFORCE")
 
 
-class NonFiniteError(FloatingPointError):
-    """An environment returned a NaN/inf reward or observation, or the loss/gradient became non-finite."""
-
-
-def _non_finite_parts(obs: Any) -> list[tuple[str | None, np.ndarray]]:
-    """The floating-point parts of an observation (an array, or a dict of arrays) that hold a NaN or an inf."""
-    parts = obs.items() if isinstance(obs, dict) else [(None, obs)]
-    arrays = [(key, np.asarray(value)) for key, value in parts]
-    return [(key, a) for key, a in arrays if np.issubdtype(a.dtype, np.floating) and not np.isfinite(a).all()]
-
-
-def _total_grad_norm(parameters: Iterable[th.Tensor]) -> th.Tensor:
-    """The global 2-norm of the parameters' gradients, as ``clip_grad_norm_`` computes it, without clipping."""
-    parameters = list(parameters)
-    if hasattr(th.nn.utils, "get_total_norm"):  # torch >= 2.6
-        return th.nn.utils.get_total_norm([p.grad for p in parameters if p.grad is not None])
-    return th.nn.utils.clip_grad_norm_(parameters, float("inf"))  # older torch: the same norm (a x1 rescale)
-
-
-class REINFORCE(OnPolicyAlgorithm):
+class REINFORCE(SaveWithRandomState, OnPolicyAlgorithm):
     """
     REINFORCE: Monte-Carlo policy gradient (Williams, 1992), optionally with a learned value baseline.
 
@@ -56,7 +34,7 @@ class REINFORCE(OnPolicyAlgorithm):
     The policy plays whole episodes, then takes one gradient step on
     ``mean_t(-log pi(a_t|s_t) * A_t)``, where ``A_t`` is the discounted reward-to-go ``G_t``
     (standardized over the batch by default), or ``G_t - V(s_t)`` with ``baseline="value"``.
-    A rollout always ends on episode boundaries; see :class:`~sb3_reinforce.buffers.EpisodeRolloutBuffer`
+    A rollout always ends on episode boundaries; see :class:`~sb3_reinforce.reinforce.buffers.EpisodeRolloutBuffer`
     for what happens to episodes still running in other environments when the batch is full.
 
     The estimator is unbiased but has high variance. A baseline reduces it without adding bias: any ``b`` that
@@ -82,7 +60,7 @@ class REINFORCE(OnPolicyAlgorithm):
         with a learned state-value baseline ``V(s)`` trained by regression on the returns, or ``"loo"`` for the
         critic-free leave-one-out baseline: for step ``t`` of an episode, the mean return ``G_t`` of the batch's
         *other* episodes that lasted past step ``t`` (0 where none did; see
-        :func:`~sb3_reinforce.returns.leave_one_out_baseline`). ``"loo"`` needs at least two episodes per batch
+        :func:`~sb3_reinforce.reinforce.returns.leave_one_out_baseline`). ``"loo"`` needs at least two episodes per batch
         (``n_episodes * n_envs >= 2``), which is checked when the model is built.
     :param normalize_returns: Standardize the policy-gradient weights over the batch (returns without a
         baseline, advantages ``G_t - V(s_t)`` with one). A batch of equal returns gives zero weights, never NaN.
@@ -110,7 +88,7 @@ class REINFORCE(OnPolicyAlgorithm):
     :param max_rollout_steps: Most transitions the rollout buffer may hold (all environments together).
         An environment that has not ended enough episodes by then raises ``RolloutLimitError`` instead of
         exhausting memory: give it a time limit, or raise this cap (memory is about this many observations).
-    :param rollout_buffer_class: Rollout buffer class to use, an :class:`~sb3_reinforce.buffers.EpisodeRolloutBuffer`
+    :param rollout_buffer_class: Rollout buffer class to use, an :class:`~sb3_reinforce.reinforce.buffers.EpisodeRolloutBuffer`
         (or a subclass; SB3's fixed-length ``RolloutBuffer`` cannot hold whole episodes). If ``None``, it will be
         automatically selected.
     :param rollout_buffer_kwargs: Keyword arguments to pass to the rollout buffer on creation.
@@ -118,7 +96,7 @@ class REINFORCE(OnPolicyAlgorithm):
         the reported success rate, mean episode length, and mean reward over
     :param tensorboard_log: the log location for tensorboard (if None, no logging)
     :param policy_kwargs: additional arguments to be passed to the policy on creation. See
-        :class:`~sb3_reinforce.policies.ReinforcePolicy` (``net_arch``, ``activation_fn``, ``xavier_init``, ...)
+        :class:`~sb3_reinforce.reinforce.policies.ReinforcePolicy` (``net_arch``, ``activation_fn``, ``xavier_init``, ...)
     :param verbose: Verbosity level: 0 for no output, 1 for info messages (such as device or wrappers used), 2 for
         debug messages
     :param seed: Seed for the pseudo random generators
@@ -135,7 +113,7 @@ class REINFORCE(OnPolicyAlgorithm):
     rollout_buffer: EpisodeRolloutBuffer  # type: ignore[assignment]
     #: Environment steps between two returns of the C heap's free memory to the OS (glibc ``malloc_trim``),
     #: or None for never. Whole-episode batches allocate a new size at every update, and without this the
-    #: resident memory of a long run keeps growing (see :mod:`sb3_reinforce.native_memory`).
+    #: resident memory of a long run keeps growing (see :mod:`sb3_reinforce.reinforce.native_memory`).
     heap_trim_interval: ClassVar[int | None] = 10_000
 
     def __init__(
@@ -166,20 +144,8 @@ class REINFORCE(OnPolicyAlgorithm):
         device: th.device | str = "auto",
         _init_setup_model: bool = True,
     ):
-        validate_hyperparameters(
-            learning_rate=learning_rate,
-            n_episodes=n_episodes,
-            min_steps=min_steps,
-            gamma=gamma,
-            baseline=baseline,
-            normalize_returns=normalize_returns,
-            ent_coef=ent_coef,
-            vf_coef=vf_coef,
-            max_grad_norm=max_grad_norm,
-            max_rollout_steps=max_rollout_steps,
-            n_value_steps=n_value_steps,
-            value_learning_rate=value_learning_rate,
-        )
+        arguments = locals()  # every hyperparameter is checked, by the table derived from this signature
+        validate_hyperparameters({name: arguments[name] for name in hyperparameter_defaults(REINFORCE)})
         if policy_kwargs is not None and "value_head" in policy_kwargs:
             raise ValueError("Do not set `value_head` in policy_kwargs: use REINFORCE(baseline='value') or baseline=None")
         super().__init__(
@@ -256,74 +222,22 @@ class REINFORCE(OnPolicyAlgorithm):
         )
         self.policy = self.policy.to(self.device)
         self._maybe_recommend_cpu("ReinforcePolicy")
-        self.value_optimizer: th.optim.Optimizer | None = None
+        self.value_fitter: ValueFitter | None = None
+        self.value_optimizer: th.optim.Optimizer | None = None  # saved and loaded by SB3 under this name
         if self.n_value_steps > 0:
             value_lr = self.learning_rate if self.value_learning_rate is None else self.value_learning_rate
-            self.value_lr_schedule = FloatSchedule(value_lr)
-            self.value_optimizer = self.policy.optimizer_class(  # type: ignore[call-arg]
-                self._value_parameters(), lr=self.value_lr_schedule(1), **self.policy.optimizer_kwargs
-            )
+            self.value_fitter = ValueFitter(self.policy, self.n_value_steps, FloatSchedule(value_lr), self.max_grad_norm)
+            self.value_optimizer = self.value_fitter.optimizer
         self._heap_trimmer = HeapTrimmer(self.heap_trim_interval)
 
     def _excluded_save_params(self) -> list[str]:
-        return [*super()._excluded_save_params(), "_heap_trimmer"]
+        return [*super()._excluded_save_params(), "_heap_trimmer", "value_fitter"]
 
     def _get_torch_save_params(self) -> tuple[list[str], list[str]]:
         state_dicts, variables = super()._get_torch_save_params()
         if self.value_optimizer is not None:
             state_dicts = [*state_dicts, "value_optimizer"]
         return state_dicts, variables
-
-    def _value_parameters(self) -> list[th.nn.Parameter]:
-        """The parameters that only ``V(s)`` uses: the value layers, and the critic's own features extractor."""
-        policy = self.policy
-        modules = [policy.mlp_extractor.value_net, policy.value_net]
-        if not policy.share_features_extractor:
-            modules.append(policy.vf_features_extractor)
-        return [param for module in modules for param in module.parameters()]
-
-    def _value_predictor(self, observations: Any) -> Callable[[], th.Tensor]:
-        """
-        ``V(s)`` of the batch, as a function each value step calls. With a features extractor shared with the
-        actor (SB3's default), the features do not depend on the value parameters and the value steps do not
-        change them: they are computed once, without a graph, and each step runs the critic's layers only. The
-        loss and its gradients are those of ``predict_values``; with a CNN, the extractor's forward and backward
-        pass were most of the cost of every step. Otherwise (a critic with its own extractor, or a policy that
-        overrides ``predict_values``), each step calls ``predict_values``.
-        """
-        policy = self.policy
-        if not policy.share_features_extractor or type(policy).predict_values is not ReinforcePolicy.predict_values:
-            return lambda: policy.predict_values(observations)
-        with th.no_grad():
-            features = BaseModel.extract_features(policy, observations, policy.vf_features_extractor)
-        return lambda: policy.value_net(policy.mlp_extractor.forward_critic(features))
-
-    def _fit_value_baseline(self, observations: Any, returns: th.Tensor) -> th.Tensor:
-        """
-        ``n_value_steps`` gradient steps on ``L_V = mean_t (G_t - V(s_t))^2`` over the whole batch (the value
-        parameters only), after the policy step. Returns the last step's loss.
-        """
-        assert self.value_optimizer is not None
-        update_learning_rate(self.value_optimizer, self.value_lr_schedule(self._current_progress_remaining))
-        parameters = [p for group in self.value_optimizer.param_groups for p in group["params"]]
-        predict_values = self._value_predictor(observations)
-        for _ in range(self.n_value_steps):
-            value_loss = F.mse_loss(predict_values().flatten(), returns)
-            self.value_optimizer.zero_grad()
-            value_loss.backward()
-            if self.max_grad_norm is not None:
-                grad_norm = th.nn.utils.clip_grad_norm_(parameters, self.max_grad_norm)
-            else:
-                grad_norm = _total_grad_norm(parameters)
-            if not (th.isfinite(value_loss) and th.isfinite(grad_norm)):
-                self.value_optimizer.zero_grad()
-                raise NonFiniteError(
-                    f"Non-finite value loss ({value_loss.item()}) or gradient norm ({grad_norm.item()}) at timestep "
-                    f"{self.num_timesteps}: the value step was skipped and the value weights are unchanged. "
-                    "Lower value_learning_rate or scale the rewards (VecNormalize)."
-                )
-            self.value_optimizer.step()
-        return value_loss.detach()
 
     def _setup_learn(
         self,
@@ -345,56 +259,6 @@ class REINFORCE(OnPolicyAlgorithm):
         # at a negative progress (a linear learning rate below 0, i.e. one step of gradient *ascent*).
         super()._update_current_progress_remaining(num_timesteps, total_timesteps)
         self._current_progress_remaining = max(0.0, self._current_progress_remaining)
-
-    def _check_finite(self, new_obs: Any, rewards: np.ndarray) -> None:
-        # Fast path, once per step: a NaN/inf anywhere makes a sum non-finite (a sum that overflows only
-        # sends us on to the exact checks below, which then find nothing).
-        parts = new_obs.values() if isinstance(new_obs, dict) else (new_obs,)
-        if np.isfinite(rewards.sum()) and all(
-            isinstance(part, np.ndarray) and (part.dtype.kind != "f" or np.isfinite(part.sum())) for part in parts
-        ):
-            return
-        if not np.isfinite(rewards).all():
-            env_idx = int(np.flatnonzero(~np.isfinite(rewards))[0])
-            raise NonFiniteError(
-                f"Environment {env_idx} returned a non-finite reward ({rewards[env_idx]}) at timestep {self.num_timesteps}: "
-                "REINFORCE cannot learn from it (check the environment's reward, or wrap it to clip rewards)."
-            )
-        for key, obs in _non_finite_parts(new_obs):
-            env_idx = int(np.flatnonzero(~np.isfinite(obs.reshape(len(obs), -1)).all(axis=1))[0])
-            self._raise_non_finite_obs("observation", env_idx, key, obs[env_idx], "REINFORCE cannot learn from it")
-
-    def _check_finite_terminal(self, env_idx: int, terminal_obs: Any) -> None:
-        # The terminal observation of a truncated episode is read only here, to bootstrap with V(s_T).
-        for key, obs in _non_finite_parts(terminal_obs):
-            self._raise_non_finite_obs(
-                "terminal observation", env_idx, key, obs, "REINFORCE cannot bootstrap the truncated episode from it"
-            )
-
-    def _raise_non_finite_obs(self, what: str, env_idx: int, key: str | None, value: np.ndarray, consequence: str) -> None:
-        where = f" (key {key!r})" if key is not None else ""
-        raise NonFiniteError(
-            f"Environment {env_idx} returned a non-finite {what}{where} at timestep {self.num_timesteps}: {value}. "
-            f"{consequence} (check the environment, or use VecCheckNan to find the cause)."
-        )
-
-    def _bootstrap_truncated(self, rewards: np.ndarray, dones: np.ndarray, infos: list[dict[str, Any]]) -> np.ndarray:
-        """
-        With a value baseline, add ``gamma * V(s_T)`` to the last reward of every truncated episode, so that its
-        return estimates what the time limit cut off (as SB3's A2C/PPO do, GH#633). Without one, do nothing:
-        the truncated episode is treated as terminal.
-        """
-        if self.baseline != "value" or not dones.any():
-            return rewards
-        rewards = rewards.astype(np.float64)
-        for idx in np.flatnonzero(dones):
-            if infos[idx].get("TimeLimit.truncated", False) and infos[idx].get("terminal_observation") is not None:
-                self._check_finite_terminal(int(idx), infos[idx]["terminal_observation"])
-                terminal_obs = self.policy.obs_to_tensor(infos[idx]["terminal_observation"])[0]
-                with th.no_grad():
-                    terminal_value = self.policy.predict_values(terminal_obs)[0].item()
-                rewards[idx] += self.gamma * terminal_value
-        return rewards
 
     def collect_rollouts(
         self,
@@ -452,11 +316,13 @@ class REINFORCE(OnPolicyAlgorithm):
                     clipped_actions = np.clip(actions, self.action_space.low, self.action_space.high)
 
             new_obs, rewards, dones, infos = env.step(clipped_actions)
-            self._check_finite(new_obs, rewards)
+            check_step(new_obs, rewards, self.num_timesteps)
             self.num_timesteps += env.num_envs
             n_steps += 1
             self._update_info_buffer(infos, dones)
-            rollout_buffer.add(self._last_obs, actions, self._bootstrap_truncated(rewards, dones, infos), dones)
+            if self.baseline == "value":  # a truncated episode's return goes on as gamma * V(s_T) (SB3 GH#633)
+                rewards = bootstrap_truncated(self.policy, self.gamma, rewards, dones, infos, self.num_timesteps)
+            rollout_buffer.add(self._last_obs, actions, rewards, dones)
             self._last_obs = new_obs
             self._last_episode_starts = dones
 
@@ -515,20 +381,20 @@ class REINFORCE(OnPolicyAlgorithm):
 
         self.policy.optimizer.zero_grad()
         loss.backward()
-        if self.max_grad_norm is not None:
-            grad_norm = th.nn.utils.clip_grad_norm_(self.policy.parameters(), self.max_grad_norm)
-        else:  # the norm only (logged, and checked below): no clipping, so no rescaling of every gradient
-            grad_norm = _total_grad_norm(p for group in self.policy.optimizer.param_groups for p in group["params"])
-        if not (th.isfinite(loss) and th.isfinite(grad_norm)):
-            self.policy.optimizer.zero_grad()
-            raise NonFiniteError(
-                f"Non-finite loss ({loss.item()}) or gradient norm ({grad_norm.item()}) at timestep {self.num_timesteps}: "
-                "the update was skipped and the weights are unchanged. Lower the learning rate, normalize the returns "
-                "(normalize_returns=True) or scale the rewards (VecNormalize)."
-            )
+        grad_norm = check_update(
+            loss,
+            [p for group in self.policy.optimizer.param_groups for p in group["params"]],
+            self.policy.optimizer,
+            self.max_grad_norm,
+            "loss",
+            "Lower the learning rate, normalize the returns (normalize_returns=True) or scale the rewards (VecNormalize).",
+            self.num_timesteps,
+        )
         self.policy.optimizer.step()
-        if with_value and not joint_value_step:
-            value_loss = self._fit_value_baseline(batch.observations, returns)
+        if self.value_fitter is not None:
+            value_loss = self.value_fitter.fit(
+                batch.observations, returns, self._current_progress_remaining, self.num_timesteps
+            )
 
         self._n_updates += 1
         self.logger.record("train/n_updates", self._n_updates, exclude="tensorboard")
@@ -545,54 +411,6 @@ class REINFORCE(OnPolicyAlgorithm):
             )
         if hasattr(self.policy, "log_std"):
             self.logger.record("train/std", th.exp(self.policy.log_std).mean().item())
-
-    def save(
-        self,
-        path: str | pathlib.Path | io.BufferedIOBase,
-        exclude: Any = None,
-        include: Any = None,
-    ) -> None:
-        """
-        Save the model as SB3 does, plus the states of the torch, numpy and ``random`` generators, so that
-        loading a seeded model continues its random stream (see :meth:`load`).
-
-        :param path: path to the file where the agent should be saved
-        :param exclude: name of parameters that should be excluded in addition to the default ones
-        :param include: name of parameters that might be excluded but should be included anyway
-        """
-        self._rng_state = get_rng_state()
-        try:
-            super().save(path, exclude, include)
-        finally:
-            del self._rng_state
-
-    @classmethod
-    def load(
-        cls: type[SelfBaseAlgorithm],
-        path: str | pathlib.Path | io.BufferedIOBase,
-        env: GymEnv | None = None,
-        device: th.device | str = "auto",
-        custom_objects: dict[str, Any] | None = None,
-        print_system_info: bool = False,
-        force_reset: bool = True,
-        **kwargs: Any,
-    ) -> SelfBaseAlgorithm:
-        """
-        Load a model saved by :meth:`save` (SB3's format: only load files you trust, it unpickles objects;
-        see :func:`sb3_reinforce.safe_io.load_weights` for a format that does not).
-
-        The file is checked first: a truncated or corrupted file raises
-        :class:`~sb3_reinforce.safe_io.CorruptModelFileError`. For a model with a ``seed``, the random generators
-        are restored to their state at save time (instead of being reseeded from ``seed``, as SB3 does).
-
-        Takes SB3's ``BaseAlgorithm.load`` arguments.
-        """
-        check_model_file(path)
-        model = super().load(path, env, device, custom_objects, print_system_info, force_reset, **kwargs)
-        rng_state = model.__dict__.pop("_rng_state", None)
-        if rng_state is not None and model.seed is not None:
-            set_rng_state(rng_state)
-        return model
 
     def learn(
         self: SelfREINFORCE,

@@ -18,7 +18,7 @@ from stable_baselines3.common.type_aliases import PyTorchObs, Schedule
 from torch import nn
 from torch.nn import functional as F
 
-from sb3_reinforce.sampling import SUPPORTED_DISTRIBUTIONS, FastSampler
+from sb3_reinforce.reinforce.sampling import SUPPORTED_DISTRIBUTIONS, FastSampler
 
 __all__ = ["CnnPolicy", "MlpPolicy", "MultiInputPolicy", "ReinforceCnnPolicy", "ReinforceMultiInputPolicy", "ReinforcePolicy"]
 
@@ -67,7 +67,7 @@ class ReinforcePolicy(ActorCriticPolicy):
     :param normal_init: ``(std, bias)``: initialize every weight from ``N(0, std**2)`` and every bias to
         ``bias``, as the seed's CarRacing script did (``(0.3, 0.1)``), instead of SB3's orthogonal
         initialization (``ortho_init`` is then ignored). None (default): not used. Not with ``xavier_init``.
-    :param fast_rollout: Sample the rollout's actions with :class:`~sb3_reinforce.sampling.FastSampler`, and
+    :param fast_rollout: Sample the rollout's actions with :class:`~sb3_reinforce.reinforce.sampling.FastSampler`, and
         evaluate ``log pi(a|s)`` and the entropy in :meth:`evaluate_actions` with their closed forms (categorical
         and diagonal Gaussian policies): the same distributions and values as SB3's, without building
         ``torch.distributions`` objects. ``False`` keeps SB3's path for both; gSDE always does.
@@ -145,7 +145,7 @@ class ReinforcePolicy(ActorCriticPolicy):
 
     def fast_sampler(self) -> FastSampler | None:
         """
-        A :class:`~sb3_reinforce.sampling.FastSampler` for the current parameters, or None where the rollout
+        A :class:`~sb3_reinforce.reinforce.sampling.FastSampler` for the current parameters, or None where the rollout
         must use SB3's ``get_distribution(obs).get_actions()``: ``fast_rollout=False``, gSDE, another
         distribution, or a subclass that changes how the distribution is built.
         """

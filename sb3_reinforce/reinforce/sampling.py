@@ -20,10 +20,10 @@ is evaluated again, with gradients, in ``train()``), so :class:`FastSampler` doe
      (or unscaling when the policy squashes) is left to the caller, as in SB3.
 
 gSDE, and policies that change how the distribution is built, keep SB3's path (see
-:meth:`~sb3_reinforce.policies.ReinforcePolicy.fast_sampler`).
+:meth:`~sb3_reinforce.reinforce.policies.ReinforcePolicy.fast_sampler`).
 """
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import torch as th
@@ -35,13 +35,11 @@ from stable_baselines3.common.distributions import (
     DiagGaussianDistribution,
     MultiCategoricalDistribution,
 )
+from stable_baselines3.common.policies import ActorCriticPolicy, BaseModel
 from stable_baselines3.common.preprocessing import is_image_space
 from stable_baselines3.common.torch_layers import FlattenExtractor
 from stable_baselines3.common.utils import obs_as_tensor
 from torch import nn
-
-if TYPE_CHECKING:
-    from sb3_reinforce.policies import ReinforcePolicy
 
 __all__ = ["FastSampler"]
 
@@ -103,14 +101,14 @@ class _Noise:
 
 class FastSampler:
     """
-    Samples actions from a :class:`~sb3_reinforce.policies.ReinforcePolicy` with as few operations as possible
+    Samples actions from a :class:`~sb3_reinforce.reinforce.policies.ReinforcePolicy` with as few operations as possible
     (see the module docstring). Build one per rollout: it reads the policy's parameters in place, so it
     follows the optimizer's updates, but a parameter *replaced* by a new tensor is only seen by a new sampler.
 
     :param policy: The policy to sample from (without gSDE)
     """
 
-    def __init__(self, policy: "ReinforcePolicy"):
+    def __init__(self, policy: ActorCriticPolicy):
         assert isinstance(policy.action_dist, SUPPORTED_DISTRIBUTIONS), "FastSampler does not support this distribution"
         self.policy = policy
         self.action_dist = policy.action_dist
@@ -127,7 +125,7 @@ class FastSampler:
             self._padded: dict[int, np.ndarray] = {}
 
     @staticmethod
-    def _numpy_actor(policy: "ReinforcePolicy") -> list[tuple[np.ndarray, np.ndarray, Any]] | None:
+    def _numpy_actor(policy: ActorCriticPolicy) -> list[tuple[np.ndarray, np.ndarray, Any]] | None:
         """The actor as NumPy layers if it is a plain MLP on flat float observations on the CPU, else None."""
         if (
             policy.device.type != "cpu"
@@ -165,7 +163,7 @@ class FastSampler:
             return x
         policy = self.policy
         with th.inference_mode():
-            features = policy.extract_actor_features(obs_as_tensor(obs, policy.device))
+            features = BaseModel.extract_features(policy, obs_as_tensor(obs, policy.device), policy.pi_features_extractor)
             return policy.action_net(policy.mlp_extractor.forward_actor(features)).cpu().numpy()
 
     def sample(self, params: np.ndarray) -> np.ndarray:

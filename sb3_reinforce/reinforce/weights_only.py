@@ -1,14 +1,15 @@
 """
-Safe loading: clear errors for damaged model files, and a weights-only format that unpickles nothing.
+A weights-only model format that unpickles nothing.
 
 SB3's ``.zip`` format (``model.save`` / ``REINFORCE.load``) stores some attributes with ``cloudpickle``:
 loading such a file runs whatever code its author put in it. Only load ``.zip`` files you trust.
 
 :func:`save_weights` / :func:`load_weights` write and read a different file, a zip archive with:
 
-- ``config.json``: the hyperparameters, the observation and action spaces described in JSON, the policy by
-  its alias (``"MlpPolicy"``, ...) and ``policy_kwargs`` limited to JSON values and names from fixed lists
-  (activation function, optimizer, features extractor);
+- ``config.json``: every hyperparameter (the table of
+  :func:`~sb3_reinforce.reinforce.hyperparameters.hyperparameter_defaults`), the observation and action
+  spaces described in JSON, the policy by its alias (``"MlpPolicy"``, ...), ``policy_kwargs`` limited to
+  JSON values and names from fixed lists (activation function, optimizer, features extractor);
 - ``weights.pt``: the policy's ``state_dict`` and the optimizer's, read with ``torch.load(weights_only=True)``,
   which refuses any pickled object other than tensors and plain containers.
 
@@ -20,9 +21,10 @@ import io
 import json
 import math
 import pathlib
+import warnings
 import zipfile
 import zlib
-from typing import IO, TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import torch as th
@@ -31,13 +33,17 @@ from stable_baselines3.common.torch_layers import CombinedExtractor, FlattenExtr
 from stable_baselines3.common.type_aliases import GymEnv
 from torch import nn
 
-if TYPE_CHECKING:
-    from sb3_reinforce.reinforce import REINFORCE
+from sb3_reinforce.reinforce.buffers import DictEpisodeRolloutBuffer, EpisodeRolloutBuffer
+from sb3_reinforce.reinforce.hyperparameters import hyperparameter_defaults
+from sb3_reinforce.reinforce.model_file import CorruptModelFileError
+from sb3_reinforce.reinforce.reinforce import REINFORCE
 
-__all__ = ["CorruptModelFileError", "UnsafeFileError", "check_model_file", "load_weights", "save_weights"]
+__all__ = ["UnsafeFileError", "load_weights", "save_weights"]
 
 FORMAT = "sb3-reinforce-weights"
-FORMAT_VERSION = 1
+#: 2: every hyperparameter, under "hyperparameters". 1 (still read): a fixed list of them, which lacked
+#: n_value_steps, value_learning_rate and a few others (loaded at their defaults, with a warning).
+FORMAT_VERSION = 2
 
 # Names that a weights-only file may use for classes; nothing else is ever looked up.
 ACTIVATIONS: dict[str, type[nn.Module]] = {
@@ -52,71 +58,15 @@ _CLASS_KWARGS: dict[str, dict[str, type]] = {
     "optimizer_class": OPTIMIZERS,
     "features_extractor_class": EXTRACTORS,
 }
-# REINFORCE's constructor arguments stored in config.json (learning_rate is checked separately)
-_HYPERPARAMETERS = (
-    "n_episodes",
-    "min_steps",
-    "gamma",
-    "baseline",
-    "normalize_returns",
-    "ent_coef",
-    "vf_coef",
-    "max_grad_norm",
-    "use_sde",
-    "sde_sample_freq",
-    "max_rollout_steps",
-    "stats_window_size",
-    "seed",
-)
-
-
-class CorruptModelFileError(ValueError):
-    """A model file is truncated, corrupted, or not a model file at all."""
+ROLLOUT_BUFFERS: dict[str, type[EpisodeRolloutBuffer]] = {
+    cls.__name__: cls for cls in (EpisodeRolloutBuffer, DictEpisodeRolloutBuffer)
+}
+#: Stored as numbers, or refused: a schedule (a callable) is code.
+_LEARNING_RATES = ("learning_rate", "value_learning_rate")
 
 
 class UnsafeFileError(ValueError):
     """A weights-only file holds something that the weights-only format does not allow."""
-
-
-# --- checking SB3 .zip files ------------------------------------------------------------------------
-def check_model_file(path: str | pathlib.Path | io.BufferedIOBase | IO[bytes]) -> None:
-    """
-    Check that an SB3 model ``.zip`` is intact before SB3 reads it: a readable zip archive whose members
-    pass their CRC checks, with a ``data`` member that is valid JSON and a ``policy.pth`` member.
-    This checks integrity only: it does not make a file from an untrusted source safe to load.
-
-    :param path: The file (``.zip`` is appended when the path does not exist, as SB3 does), or an open file
-    :raises CorruptModelFileError: naming the file and what is wrong with it
-    """
-    if isinstance(path, (str, pathlib.Path)):
-        path = pathlib.Path(path)
-        if not path.exists() and path.with_name(path.name + ".zip").exists():
-            path = path.with_name(path.name + ".zip")
-        if not path.exists():
-            return  # SB3 raises its own FileNotFoundError
-        name = str(path)
-    else:
-        name = getattr(path, "name", repr(path))
-        start = path.tell()
-    try:
-        with zipfile.ZipFile(path) as archive:
-            damaged = archive.testzip()
-            if damaged is not None:
-                raise CorruptModelFileError(f"Cannot load {name}: member {damaged!r} fails its CRC check (corrupted file)")
-            missing = [member for member in ("data", "policy.pth") if member not in archive.namelist()]
-            if missing:
-                raise CorruptModelFileError(
-                    f"Cannot load {name}: the file is truncated or corrupted, or not an SB3 model file "
-                    f"(it has no {missing} member)"
-                )
-            json.loads(archive.read("data").decode())
-    except (zipfile.BadZipFile, zlib.error, EOFError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise CorruptModelFileError(
-            f"Cannot load {name}: the file is truncated or corrupted ({type(exc).__name__}: {exc})"
-        ) from exc
-    finally:
-        if not isinstance(path, pathlib.Path):
-            path.seek(start)
 
 
 # --- spaces as JSON ---------------------------------------------------------------------------------
@@ -225,12 +175,54 @@ def _policy_kwargs_from_json(policy_kwargs: Any) -> dict[str, Any]:
     return result
 
 
-def save_weights(model: "REINFORCE", path: str | pathlib.Path) -> None:
+def _hyperparameter_to_json(model: REINFORCE, name: str) -> Any:
+    value = getattr(model, "_stats_window_size" if name == "stats_window_size" else name)
+    if name in _LEARNING_RATES:
+        if callable(value):
+            raise UnsafeFileError(f"`{name}` is a schedule (a callable), which the weights-only format cannot store")
+        return None if value is None else float(value)
+    if name == "policy_kwargs":
+        return _policy_kwargs_to_json(value)
+    if name == "rollout_buffer_class":
+        if ROLLOUT_BUFFERS.get(getattr(value, "__name__", "")) is not value:
+            raise UnsafeFileError(
+                f"rollout_buffer_class={value!r} cannot be saved in the weights-only format, "
+                f"which allows {sorted(ROLLOUT_BUFFERS)}"
+            )
+        return getattr(value, "__name__", None)
+    if name == "tensorboard_log" and value is not None:
+        return str(value)
+    try:
+        if json.loads(json.dumps(value)) != value:
+            raise TypeError("changed by a JSON round trip (tuples?)")
+    except (TypeError, ValueError) as exc:
+        raise UnsafeFileError(
+            f"`{name}` = {value!r} is not a JSON value: the weights-only format cannot store it ({exc})"
+        ) from exc
+    return value
+
+
+def _hyperparameter_from_json(name: str, value: Any) -> Any:
+    if name in _LEARNING_RATES:
+        if value is not None and not isinstance(value, (int, float)):
+            raise UnsafeFileError(f"`{name}` must be a number in a weights-only file, got {value!r}")
+        return value
+    if name == "policy_kwargs":
+        return _policy_kwargs_from_json(value)
+    if name == "rollout_buffer_class":
+        if value not in ROLLOUT_BUFFERS:
+            raise UnsafeFileError(f"rollout_buffer_class must be one of {sorted(ROLLOUT_BUFFERS)}, got {value!r}")
+        return ROLLOUT_BUFFERS[value]
+    return value
+
+
+def save_weights(model: REINFORCE, path: str | pathlib.Path) -> None:
     """
     Save a REINFORCE model in the weights-only format (see the module docstring). Load it with :func:`load_weights`.
 
-    Saved: the hyperparameters, the spaces, the policy's and the optimizer's ``state_dict``, ``num_timesteps`` and
-    the number of updates. Not saved: the episode statistics, the logger, the environment, the random generators.
+    Saved: every hyperparameter, the spaces, the policy's and the optimizer's ``state_dict`` (and the value
+    steps' optimizer's), ``num_timesteps`` and the number of updates. Not saved: the episode statistics, the
+    logger, the environment, the random generators.
 
     :param model: The model
     :param path: Where to write the file (a zip archive; no suffix is added)
@@ -242,47 +234,64 @@ def save_weights(model: "REINFORCE", path: str | pathlib.Path) -> None:
             f"Policy class {model.policy_class!r} has no alias in REINFORCE.policy_aliases: "
             "the weights-only format only names policies by alias"
         )
-    if callable(model.learning_rate):
-        raise UnsafeFileError("A learning-rate schedule (a callable) cannot be stored in the weights-only format")
     config = {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
         "algorithm": "REINFORCE",
         "policy": alias,
-        "learning_rate": float(model.learning_rate),
-        "hyperparameters": {
-            name: getattr(model, "_stats_window_size" if name == "stats_window_size" else name) for name in _HYPERPARAMETERS
-        },
-        "policy_kwargs": _policy_kwargs_to_json(model.policy_kwargs),
+        "hyperparameters": {name: _hyperparameter_to_json(model, name) for name in hyperparameter_defaults(REINFORCE)},
         "observation_space": space_to_json(model.observation_space),
         "action_space": space_to_json(model.action_space),
         "num_timesteps": int(model.num_timesteps),
         "n_updates": int(model._n_updates),
     }
+    state = {"policy": model.policy.state_dict(), "optimizer": model.policy.optimizer.state_dict()}
+    if model.value_optimizer is not None:
+        state["value_optimizer"] = model.value_optimizer.state_dict()
     buffer = io.BytesIO()
-    th.save({"policy": model.policy.state_dict(), "optimizer": model.policy.optimizer.state_dict()}, buffer)
+    th.save(state, buffer)
     with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as archive:
         archive.writestr("config.json", json.dumps(config, indent=1))
         archive.writestr("weights.pt", buffer.getvalue())
 
 
+def _read_hyperparameters(path: str | pathlib.Path, config: dict[str, Any]) -> dict[str, Any]:
+    """The hyperparameters of a weights-only file's ``config.json``, a version 1 file's missing ones at their defaults."""
+    defaults = hyperparameter_defaults(REINFORCE)
+    hyperparameters = config.get("hyperparameters")
+    if not isinstance(hyperparameters, dict) or set(hyperparameters) - set(defaults):
+        raise UnsafeFileError(f"{path}: hyperparameters must be a JSON object with keys among {sorted(defaults)}")
+    if config["format_version"] == 1:  # learning_rate and policy_kwargs stood beside the hyperparameters
+        hyperparameters = {
+            **hyperparameters,
+            "learning_rate": config.get("learning_rate"),
+            "policy_kwargs": config.get("policy_kwargs", {}),
+        }
+        missing = [name for name in defaults if name not in hyperparameters]
+        warnings.warn(
+            f"{path} is a weights-only file of format version 1, which did not store {missing}: they are loaded at "
+            f"their defaults ({', '.join(f'{name}={defaults[name]!r}' for name in missing)}). Save it again to keep them.",
+            stacklevel=3,
+        )
+    return {name: _hyperparameter_from_json(name, value) for name, value in hyperparameters.items()}
+
+
 def load_weights(
     path: str | pathlib.Path, env: GymEnv | None = None, device: th.device | str = "auto", load_optimizer: bool = True
-) -> "REINFORCE":
+) -> REINFORCE:
     """
     Load a model saved by :func:`save_weights`, unpickling nothing: ``config.json`` is parsed as JSON and
-    ``weights.pt`` is read with ``torch.load(weights_only=True)``.
+    ``weights.pt`` is read with ``torch.load(weights_only=True)``. A file of format version 1 (which stored a
+    fixed list of hyperparameters) loads too, the missing ones at their defaults, with a warning naming them.
 
     :param path: The file
     :param env: The environment to train on (its spaces must match the saved ones), or None to only predict
     :param device: Device for the model
-    :param load_optimizer: Whether to restore the optimizer's state (Adam moments) as well
+    :param load_optimizer: Whether to restore the optimizers' states (Adam moments) as well
     :return: The model
     :raises CorruptModelFileError: if the file is not an intact weights-only file
     :raises UnsafeFileError: if the file names a class, space or value outside the format
     """
-    from sb3_reinforce.reinforce import REINFORCE
-
     try:
         with zipfile.ZipFile(path) as archive:
             names = archive.namelist()
@@ -294,13 +303,15 @@ def load_weights(
             weights_bytes = archive.read("weights.pt")
     except (zipfile.BadZipFile, zlib.error, EOFError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise CorruptModelFileError(f"Cannot load {path}: truncated or corrupted ({type(exc).__name__}: {exc})") from exc
-    if not isinstance(config, dict) or config.get("format") != FORMAT or config.get("format_version") != FORMAT_VERSION:
-        raise UnsafeFileError(f"{path}: config.json is not a {FORMAT} v{FORMAT_VERSION} description")
+    if (
+        not isinstance(config, dict)
+        or config.get("format") != FORMAT
+        or config.get("format_version") not in (1, FORMAT_VERSION)
+    ):
+        raise UnsafeFileError(f"{path}: config.json is not a {FORMAT} description of version 1 or {FORMAT_VERSION}")
     if config.get("policy") not in REINFORCE.policy_aliases:
         raise UnsafeFileError(f"{path}: unknown policy {config.get('policy')!r}, allowed: {sorted(REINFORCE.policy_aliases)}")
-    hyperparameters = config.get("hyperparameters")
-    if not isinstance(hyperparameters, dict) or set(hyperparameters) - set(_HYPERPARAMETERS):
-        raise UnsafeFileError(f"{path}: hyperparameters must be a JSON object with keys among {_HYPERPARAMETERS}")
+    hyperparameters = _read_hyperparameters(path, config)
     observation_space = space_from_json(config["observation_space"])
     action_space = space_from_json(config["action_space"])
     try:
@@ -314,15 +325,7 @@ def load_weights(
     if not isinstance(weights, dict) or not isinstance(weights.get("policy"), dict):
         raise UnsafeFileError(f"{path}: weights.pt must hold a dict with a 'policy' state_dict")
 
-    model = REINFORCE(
-        config["policy"],
-        env,  # type: ignore[arg-type]
-        learning_rate=float(config["learning_rate"]),
-        policy_kwargs=_policy_kwargs_from_json(config.get("policy_kwargs", {})),
-        device=device,
-        _init_setup_model=False,
-        **hyperparameters,
-    )
+    model = REINFORCE(config["policy"], env, device=device, _init_setup_model=False, **hyperparameters)  # type: ignore[arg-type]
     if env is None:
         model.observation_space, model.action_space, model.n_envs = observation_space, action_space, 1
     elif model.observation_space != observation_space or model.action_space != action_space:
@@ -334,6 +337,8 @@ def load_weights(
     model.policy.load_state_dict(weights["policy"])
     if load_optimizer and "optimizer" in weights:
         model.policy.optimizer.load_state_dict(weights["optimizer"])
+    if load_optimizer and model.value_optimizer is not None and "value_optimizer" in weights:
+        model.value_optimizer.load_state_dict(weights["value_optimizer"])
     model.num_timesteps = int(config.get("num_timesteps", 0))
     model._n_updates = int(config.get("n_updates", 0))
     return model
