@@ -6,29 +6,41 @@ counts as infinitely late.
 
 from collections.abc import Callable, Sequence
 
+import gymnasium as gym
 import numpy as np
 from scipy import stats
 
 __all__ = [
-    "SOLVE_THRESHOLDS",
+    "THRESHOLDS_WITHOUT_GYMNASIUM",
     "bootstrap_ci",
     "first_crossing",
     "iqm",
     "quantile_with_inf",
     "rolling_mean",
+    "solve_threshold",
 ]
 
-#: Score at which an environment counts as solved (Gymnasium's ``reward_threshold`` where it has one;
-#: Pendulum-v1 has none and uses rl-baselines3-zoo's usual -200).
-SOLVE_THRESHOLDS: dict[str, float] = {
-    "CartPole-v1": 475.0,
-    "Acrobot-v1": -100.0,
-    "LunarLander-v3": 200.0,
-    "MountainCar-v0": -110.0,
-    "Pendulum-v1": -200.0,
-    "LunarLanderContinuous-v3": 200.0,
-    "CarRacing-v3": 900.0,
-}
+#: Solve thresholds of environments that Gymnasium gives none (``reward_threshold`` is None): Pendulum-v1's -200
+#: is issue #13's target for it (docs/status.md). Any other threshold (CarRacing-v3's target of 500, say, against
+#: Gymnasium's 900) is passed to ``sb3-reinforce compare --threshold``.
+THRESHOLDS_WITHOUT_GYMNASIUM: dict[str, float] = {"Pendulum-v1": -200.0}
+
+
+def solve_threshold(env_id: str) -> float | None:
+    """
+    Score at which an environment counts as solved: Gymnasium's ``reward_threshold`` of its registered spec, or
+    :data:`THRESHOLDS_WITHOUT_GYMNASIUM` for an environment that has none.
+
+    :param env_id: A Gymnasium environment id
+    :return: The threshold, or None if neither defines one (or the id is not registered)
+    """
+    if env_id in THRESHOLDS_WITHOUT_GYMNASIUM:
+        return THRESHOLDS_WITHOUT_GYMNASIUM[env_id]
+    try:
+        threshold = gym.spec(env_id).reward_threshold
+    except gym.error.Error:  # not registered (an environment of a package not imported here)
+        return None
+    return None if threshold is None else float(threshold)
 
 
 def iqm(values: Sequence[float] | np.ndarray) -> float:
@@ -53,9 +65,10 @@ def bootstrap_ci(
     seed: int = 0,
 ) -> tuple[float, float]:
     """
-    Percentile-bootstrap confidence interval of ``statistic``: resample the values with replacement
-    ``n_resamples`` times and take the ``(1 - confidence) / 2`` and ``(1 + confidence) / 2`` quantiles of the
-    statistic over the resamples (rliable's default method, with one task).
+    Percentile-bootstrap confidence interval of ``statistic`` (``scipy.stats.bootstrap`` with
+    ``method="percentile"``): resample the values with replacement ``n_resamples`` times and take the
+    ``(1 - confidence) / 2`` and ``(1 + confidence) / 2`` quantiles of the statistic over the resamples
+    (rliable's default method, with one task).
 
     :param values: The scores (one per run)
     :param statistic: Maps a 1-D array to a number (e.g. ``np.mean`` or :func:`iqm`)
@@ -69,12 +82,17 @@ def bootstrap_ci(
         raise ValueError("bootstrap_ci() of an empty sequence")
     if not 0.0 < confidence < 1.0:
         raise ValueError(f"confidence must be in (0, 1), got {confidence}")
-    rng = np.random.default_rng(seed)
-    indices = rng.integers(0, array.size, size=(n_resamples, array.size))
-    estimates = np.array([statistic(array[idx]) for idx in indices])
-    alpha = (1.0 - confidence) / 2.0
-    lower, upper = np.quantile(estimates, [alpha, 1.0 - alpha])
-    return float(lower), float(upper)
+    if array.size == 1:  # every resample is the one value (scipy's bootstrap needs two)
+        return float(array[0]), float(array[0])
+    result = stats.bootstrap(
+        (array,),
+        statistic,
+        n_resamples=n_resamples,
+        confidence_level=confidence,
+        method="percentile",
+        rng=np.random.default_rng(seed),
+    )
+    return float(result.confidence_interval.low), float(result.confidence_interval.high)
 
 
 def first_crossing(x: Sequence[float] | np.ndarray, scores: Sequence[float] | np.ndarray, threshold: float) -> float:

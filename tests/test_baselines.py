@@ -279,4 +279,5 @@ def test_save_load_keeps_the_value_optimizer(tmp_path) -> None:
 def test_identity_learned_with_each_baseline(kwargs: dict) -> None:
     env = DummyVecEnv([lambda: IdentityEnv(4)])
     model = REINFORCE("MlpPolicy", env, gamma=0.4, seed=1, **kwargs).learn(3000)
-    evaluate_policy(model, env, n_eval_episodes=20, reward_threshold=90, warn=False)
+    mean_reward, _ = evaluate_policy(model, env, n_eval_episodes=20, warn=False)
+    assert mean_reward >= 90, mean_reward  # of 100: the right action on at least 90% of the steps

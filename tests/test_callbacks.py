@@ -5,6 +5,7 @@ import pathlib
 
 import gymnasium as gym
 import numpy as np
+import pytest
 from stable_baselines3.common.callbacks import (
     BaseCallback,
     CallbackList,
@@ -80,5 +81,7 @@ def test_stop_inside_rollout_keeps_experience() -> None:
     assert model.num_timesteps > 30
 
 
-def test_progress_bar() -> None:
-    REINFORCE("MlpPolicy", "CartPole-v1", seed=0).learn(300, progress_bar=True)
+def test_progress_bar(capsys: pytest.CaptureFixture[str]) -> None:
+    model = REINFORCE("MlpPolicy", "CartPole-v1", seed=0).learn(300, progress_bar=True)
+    assert model.num_timesteps >= 300
+    assert f"{model.num_timesteps}/300" in capsys.readouterr().out  # rich's bar, ended at the steps done

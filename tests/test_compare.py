@@ -35,7 +35,15 @@ from sb3_reinforce.compare.runner import RESULT_COLUMNS, RunSpec, code_version
 from sb3_reinforce.seed_reproduction import EPISODE_COLUMNS, RewardFloor
 from sb3_reinforce.seed_reproduction import build_parser as build_seed_parser
 from sb3_reinforce.seed_reproduction import main as seed_main
-from sb3_reinforce.stats import bootstrap_ci, first_crossing, iqm, quantile_with_inf, rolling_mean
+from sb3_reinforce.stats import (
+    THRESHOLDS_WITHOUT_GYMNASIUM,
+    bootstrap_ci,
+    first_crossing,
+    iqm,
+    quantile_with_inf,
+    rolling_mean,
+    solve_threshold,
+)
 from sb3_reinforce.version import __version__
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -67,6 +75,17 @@ def test_bootstrap_ci_hand_computed() -> None:
     assert low <= low50 and high50 <= high
     with pytest.raises(ValueError):
         bootstrap_ci(values, confidence=1.0)
+    # One run: every resample is its value (scipy's bootstrap refuses a single observation)
+    assert bootstrap_ci([3.0], iqm) == (3.0, 3.0)
+
+
+def test_solve_thresholds_are_gymnasiums() -> None:
+    # Gymnasium's reward_threshold where the env has one; Pendulum-v1 has none and takes issue #13's -200
+    expected = {"CartPole-v1": 475, "Acrobot-v1": -100, "LunarLander-v3": 200, "MountainCar-v0": -110, "CarRacing-v3": 900}
+    assert {env_id: solve_threshold(env_id) for env_id in expected} == expected
+    assert gym.spec("Pendulum-v1").reward_threshold is None and solve_threshold("Pendulum-v1") == -200
+    assert solve_threshold("Pendulum-v1") == THRESHOLDS_WITHOUT_GYMNASIUM["Pendulum-v1"]
+    assert solve_threshold("NoSuchEnv-v0") is None
 
 
 def test_first_crossing_hand_computed() -> None:

@@ -34,7 +34,8 @@ def test_discrete(env: gym.Env, n_steps: int, kwargs: dict) -> None:
 def test_continuous(baseline: str | None) -> None:
     env = IdentityEnvBox(eps=0.5)
     model = REINFORCE("MlpPolicy", env, gamma=0.95, seed=1, baseline=baseline).learn(6000)
-    evaluate_policy(model, env, n_eval_episodes=20, reward_threshold=90, warn=False)
+    mean_reward, _ = evaluate_policy(model, env, n_eval_episodes=20, warn=False)
+    assert mean_reward >= 90, mean_reward  # of 100: within eps of the target on at least 90% of the steps
 
 
 @pytest.mark.parametrize("baseline", [None, "value"])

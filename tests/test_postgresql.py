@@ -11,7 +11,7 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -24,13 +24,13 @@ from sb3_reinforce import REINFORCE
 from sb3_reinforce.zoo import main
 from sb3_reinforce.zoo.storage import (
     FaultTolerance,
+    FaultTolerantStorage,
     StorageError,
     caused_by_database,
     held_slots,
     open_database_storage,
     owes_retry,
     retried_trial_number,
-    retry_failed_trials,
     surplus_reason,
 )
 from tests.postgres import PostgresServer, ServerUnavailable, postgres_server
@@ -75,17 +75,24 @@ def finish(worker: subprocess.Popen, timeout: float = 600) -> str:
     return output
 
 
-def wait_for_running_trial(storage: str, study_name: str, pid: int | None = None, timeout: float = 120) -> None:
+def wait_until(condition: Callable[[], bool], what: str, timeout: float = 60, interval: float = 0.2) -> None:
+    """Poll ``condition`` until it holds; fail naming ``what`` after ``timeout`` seconds."""
     deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
+    while not condition():
+        if time.monotonic() > deadline:
+            raise TimeoutError(f"{what}: not after {timeout} s")
+        time.sleep(interval)
+
+
+def wait_for_running_trial(storage: str, study_name: str, pid: int | None = None, timeout: float = 120) -> None:
+    def running() -> bool:
         try:
             trials = optuna.load_study(study_name=study_name, storage=storage).get_trials(states=(TrialState.RUNNING,))
         except KeyError:  # the study does not exist yet
-            trials = []
-        if any(pid is None or t.user_attrs.get("worker", "").endswith(f":{pid}") for t in trials):
-            return
-        time.sleep(0.2)
-    raise TimeoutError(f"no running trial{'' if pid is None else f' of worker {pid}'} after {timeout} s")
+            return False
+        return any(pid is None or t.user_attrs.get("worker", "").endswith(f":{pid}") for t in trials)
+
+    wait_until(running, f"a running trial{'' if pid is None else f' of worker {pid}'}", timeout)
 
 
 def check_exact_total(study: optuna.Study, total: int, outputs: Sequence[str] = ()) -> list[optuna.trial.FrozenTrial]:
@@ -160,9 +167,10 @@ def test_server_restart_during_trials(postgres: PostgresServer, tmp_path: Path) 
     check_exact_total(optuna.load_study(study_name="restarted-server", storage=postgres.url), 4, outputs)
 
 
-def sqlite_study(tmp_path: Path, max_retry: int = 3) -> optuna.Study:
+def sqlite_study(tmp_path: Path, max_retry: int = 3) -> tuple[optuna.Study, FaultTolerantStorage]:
+    """A study on SQLite through the same storage as PostgreSQL's: heartbeat every 1 s, grace period 4 s."""
     storage = open_database_storage(f"sqlite:///{tmp_path / 'study.db'}", FaultTolerance(1, 4, max_retry))
-    return optuna.create_study(storage=storage, direction="maximize")
+    return optuna.create_study(storage=storage, direction="maximize"), storage
 
 
 def add_trial(study: optuna.Study, state: TrialState, worker: str = "host:1") -> optuna.trial.FrozenTrial:
@@ -174,43 +182,51 @@ def add_trial(study: optuna.Study, state: TrialState, worker: str = "host:1") ->
     return study.trials[trial.number]
 
 
+def waiting(study: optuna.Study) -> list[int | None]:
+    """The trials queued to run, as the numbers of the trials they retry."""
+    return [retried_trial_number(t) for t in study.get_trials(states=(TrialState.WAITING,))]
+
+
 def test_a_trial_failed_by_a_lost_connection_is_retried_once(tmp_path: Path) -> None:
     # Optuna marks a trial FAIL when the database error reaches it: the worker queues its retry (not a stale trial)
-    study = sqlite_study(tmp_path)
+    study, storage = sqlite_study(tmp_path)
     mine, _ = add_trial(study, TrialState.FAIL, "host:1"), add_trial(study, TrialState.FAIL, "host:2")
-    retry_failed_trials(study, "host:1", max_retry=3, orphaned_after=60)
-    retry_failed_trials(study, "host:1", max_retry=3, orphaned_after=60)  # once only
-    waiting = study.get_trials(states=(TrialState.WAITING,))
-    assert [retried_trial_number(t) for t in waiting] == [mine.number]  # the other worker's failure is recent
-    assert waiting[0].params == mine.params
+    storage.retry_failed_trials(study, "host:1", orphaned_after=60)
+    storage.retry_failed_trials(study, "host:1", orphaned_after=60)  # once only
+    assert waiting(study) == [mine.number]  # the other worker's failure is recent
+    assert study.get_trials(states=(TrialState.WAITING,))[0].params == mine.params
 
 
 def test_an_orphaned_failure_is_retried_by_any_worker(tmp_path: Path) -> None:
     # A worker that died between the failure of its trial and the retry: another worker queues it after the delay
-    study = sqlite_study(tmp_path)
+    study, storage = sqlite_study(tmp_path)
     orphan = add_trial(study, TrialState.FAIL, "host:2")
-    retry_failed_trials(study, "host:1", max_retry=3)  # no delay given: only this worker's own failures
-    assert not study.get_trials(states=(TrialState.WAITING,))
-    time.sleep(2.1)  # timed by the database's clock (SQLite's has whole seconds), from when this worker first saw it
-    retry_failed_trials(study, "host:1", max_retry=3, orphaned_after=1)
-    assert [retried_trial_number(t) for t in study.get_trials(states=(TrialState.WAITING,))] == [orphan.number]
+    storage.retry_failed_trials(study, "host:1")  # no delay given: only this worker's own failures; first seen owed now
+    storage.retry_failed_trials(study, "host:1", orphaned_after=3)  # seen owed for less than 3 s
+    assert not waiting(study)
+    # timed by this process's clock, from when it first saw the trial owed
+    wait_until(lambda: storage.retry_failed_trials(study, "host:1", orphaned_after=3) or bool(waiting(study)), "orphan queued")
+    assert waiting(study) == [orphan.number]
 
 
 def test_an_orphaned_failure_is_timed_per_study(tmp_path: Path) -> None:
     # Looking for the owed retries of another study of the same storage does not restart an orphan's clock
-    study = sqlite_study(tmp_path)
-    other = optuna.create_study(storage=study._storage, direction="maximize")
+    study, storage = sqlite_study(tmp_path)
+    other = optuna.create_study(storage=storage, direction="maximize")
     orphan = add_trial(study, TrialState.FAIL, "host:2")
-    retry_failed_trials(study, "host:1", max_retry=3, orphaned_after=1)  # first seen owed now
-    time.sleep(2.1)
-    retry_failed_trials(other, "host:1", max_retry=3, orphaned_after=1)
-    retry_failed_trials(study, "host:1", max_retry=3, orphaned_after=1)
-    assert [retried_trial_number(t) for t in study.get_trials(states=(TrialState.WAITING,))] == [orphan.number]
+
+    def look_at_both() -> bool:
+        storage.retry_failed_trials(other, "host:1", orphaned_after=1)
+        storage.retry_failed_trials(study, "host:1", orphaned_after=1)
+        return bool(waiting(study))
+
+    wait_until(look_at_both, "orphan queued while another study is looked at", interval=0.1)
+    assert waiting(study) == [orphan.number]
 
 
 def test_a_failed_trial_keeps_its_slot_for_its_retry(tmp_path: Path) -> None:
     # In the order the database numbers them: 0 done, 1 failed (owed a retry), 2 running; a total of 3
-    study = sqlite_study(tmp_path)
+    study, storage = sqlite_study(tmp_path)
     add_trial(study, TrialState.COMPLETE)
     failed = add_trial(study, TrialState.FAIL)
     add_trial(study, TrialState.RUNNING)
@@ -222,30 +238,32 @@ def test_a_failed_trial_keeps_its_slot_for_its_retry(tmp_path: Path) -> None:
     study._storage.set_trial_user_attr(fresh._trial_id, "surplus", True)
     study.tell(fresh.number, state=TrialState.FAIL)
     # The retry, queued after that trial, takes the slot that was kept for it
-    retry_failed_trials(study, "host:1", max_retry=3)
+    storage.retry_failed_trials(study, "host:1")
     retry = study.ask()  # the waiting retry is run first
     assert retried_trial_number(study.trials[retry.number]) == failed.number
     assert not owes_retry(failed, study.trials, max_retry=3)
     assert surplus_reason(retry.number, study.trials, total=3, max_retry=3) is None
     assert held_slots(study.trials, max_retry=3) == 3
     # A second retry of the same trial (two workers queued one at the same moment) does not run
-    study.enqueue_trial(failed.params, user_attrs=failed.user_attrs)
+    queue_retry(storage, study, failed)
     duplicate = study.ask()
-    study._storage.set_trial_system_attr(duplicate._trial_id, "failed_trial", failed.number)
+    assert retried_trial_number(study.trials[duplicate.number]) == failed.number
     assert surplus_reason(duplicate.number, study.trials, total=10, max_retry=3) == f"trial {failed.number} is already retried"
 
 
-def queue_retry(study: optuna.Study, failed: optuna.trial.FrozenTrial) -> None:
+def queue_retry(storage: FaultTolerantStorage, study: optuna.Study, failed: optuna.trial.FrozenTrial) -> None:
     """What a worker does for a failed trial it owes a retry: the storage's retry callback."""
-    study._storage.get_heartbeat_stale_trial_callback()(study, study.trials[failed.number])
+    callback = storage.get_heartbeat_stale_trial_callback()
+    assert callback is not None
+    callback(study, study.trials[failed.number])
 
 
 def test_a_duplicate_retry_does_not_cancel_the_retry_of_the_retry(tmp_path: Path) -> None:
     # Two workers queued the retry of one orphan at the same moment; the first copy runs and loses the database
-    study = sqlite_study(tmp_path)
+    study, storage = sqlite_study(tmp_path)
     failed = add_trial(study, TrialState.FAIL, "host:1")
-    queue_retry(study, failed)
-    queue_retry(study, failed)
+    queue_retry(storage, study, failed)
+    queue_retry(storage, study, failed)
     retry = study.ask()
     study._storage.set_trial_user_attr(retry._trial_id, "worker", "host:2")
     study.tell(retry, state=TrialState.FAIL)
@@ -255,20 +273,23 @@ def test_a_duplicate_retry_does_not_cancel_the_retry_of_the_retry(tmp_path: Path
     assert not owes_retry(study.trials[failed.number], study.trials, max_retry=3)
     # The duplicate, run now, is surplus whatever happened to the first copy: it would add a retry to the chain
     assert surplus_reason(duplicate.number, study.trials, total=10, max_retry=3) == f"trial {failed.number} is already retried"
-    retry_failed_trials(study, "host:2", max_retry=3)
+    storage.retry_failed_trials(study, "host:2")
     (retry_of_retry,) = [t for t in study.get_trials(states=(TrialState.WAITING,)) if t.number != duplicate.number]
     assert retry_of_retry.system_attrs["retry_history"] == [failed.number, retry.number]
 
 
 def test_a_stale_trial_that_had_failed_by_itself_is_not_retried(tmp_path: Path) -> None:
     # Its error was recorded, then its worker lost the database before it could record the FAIL: found stale later
-    study = sqlite_study(tmp_path)
+    study, storage = sqlite_study(tmp_path)
     for attribute in ("error", "surplus"):
         trial = add_trial(study, TrialState.RUNNING)
         study._storage.set_trial_user_attr(trial._trial_id, attribute, "ValueError: a bug" if attribute == "error" else True)
         study._storage.set_trial_state_values(trial._trial_id, state=TrialState.FAIL)
-        queue_retry(study, trial)
+        queue_retry(storage, study, trial)
     assert not study.get_trials(states=(TrialState.WAITING,))
+    # the same callback does queue a trial that failed by no error of its own
+    queue_retry(storage, study, add_trial(study, TrialState.FAIL))
+    assert len(waiting(study)) == 1
 
 
 def test_a_retry_left_waiting_in_a_full_study_is_recorded_surplus(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -281,8 +302,8 @@ def test_a_retry_left_waiting_in_a_full_study_is_recorded_surplus(tmp_path: Path
     storage = open_database_storage(url, FaultTolerance(1, 4, 3))
     study = optuna.create_study(storage=storage, study_name="full", direction="maximize")
     failed = add_trial(study, TrialState.FAIL, "host:1")
-    queue_retry(study, failed)
-    queue_retry(study, failed)
+    queue_retry(storage, study, failed)
+    queue_retry(storage, study, failed)
     retry = study.ask()
     study.tell(retry, 1.0)
     assert main([*optimize_args(url, "full", 100, total=1), "-f", str(tmp_path / "logs")]) == 0
@@ -296,56 +317,56 @@ def test_a_retry_left_waiting_in_a_full_study_is_recorded_surplus(tmp_path: Path
 
 def test_a_trial_that_never_beat_is_failed_and_retried(tmp_path: Path) -> None:
     # A worker that died (or lost the database) before its heartbeat thread wrote once: Optuna alone never fails it
-    study = sqlite_study(tmp_path)  # heartbeat every 1 s, grace period 4 s
+    study, storage = sqlite_study(tmp_path)  # heartbeat every 1 s, grace period 4 s
     silent = add_trial(study, TrialState.RUNNING)  # asked, no heartbeat thread
     beating = add_trial(study, TrialState.RUNNING)
-    study._storage.record_heartbeat(beating._trial_id)
-    optuna.storages.fail_stale_trials(study)  # first seen silent now
-    assert study.trials[silent.number].state == TrialState.RUNNING
-    time.sleep(2.5)
-    study._storage.record_heartbeat(beating._trial_id)
-    optuna.storages.fail_stale_trials(study)
-    assert study.trials[silent.number].state == TrialState.RUNNING  # not silent for the grace period yet
-    time.sleep(2.5)
-    study._storage.record_heartbeat(beating._trial_id)
-    optuna.storages.fail_stale_trials(study)
-    assert study.trials[silent.number].state == TrialState.FAIL
+
+    def look_for_stale_trials() -> bool:
+        storage.record_heartbeat(beating._trial_id)
+        optuna.storages.fail_stale_trials(study)
+        return study.trials[silent.number].state == TrialState.FAIL
+
+    assert not look_for_stale_trials()  # first seen silent now
+    assert not look_for_stale_trials()  # not silent for the grace period yet
+    wait_until(look_for_stale_trials, "the silent trial failed")
     assert study.trials[beating.number].state == TrialState.RUNNING
-    assert [retried_trial_number(t) for t in study.get_trials(states=(TrialState.WAITING,))] == [silent.number]
+    assert waiting(study) == [silent.number]
 
 
 def test_a_silent_trial_is_timed_per_study(tmp_path: Path) -> None:
     # Looking for the stale trials of another study of the same storage does not restart a silent trial's clock
-    study = sqlite_study(tmp_path)  # heartbeat every 1 s, grace period 4 s
-    other = optuna.create_study(storage=study._storage, direction="maximize")
+    study, storage = sqlite_study(tmp_path)  # heartbeat every 1 s, grace period 4 s
+    other = optuna.create_study(storage=storage, direction="maximize")
     silent = add_trial(study, TrialState.RUNNING)
-    optuna.storages.fail_stale_trials(study)  # first seen silent now
-    for _ in range(5):
-        time.sleep(1.1)
+
+    def look_at_both() -> bool:
         optuna.storages.fail_stale_trials(other)
-    optuna.storages.fail_stale_trials(study)
-    assert study.trials[silent.number].state == TrialState.FAIL
+        optuna.storages.fail_stale_trials(study)
+        return study.trials[silent.number].state == TrialState.FAIL
+
+    wait_until(look_at_both, "the silent trial failed while another study is looked at", interval=0.1)
+    assert waiting(study) == [silent.number] and not waiting(other)
 
 
 def test_a_trial_failed_by_its_own_error_is_not_retried(tmp_path: Path) -> None:
     # The objective records the error of a trial that failed by itself: retrying it would only fail again
-    study = sqlite_study(tmp_path)
+    study, storage = sqlite_study(tmp_path)
     trial = study.ask()
     trial.set_user_attr("worker", "host:1")
     trial.set_user_attr("error", "ValueError: a bug")
     study.tell(trial, state=TrialState.FAIL)
     assert not owes_retry(study.trials[0], study.trials, max_retry=3)
-    retry_failed_trials(study, "host:1", max_retry=3, orphaned_after=0)
+    storage.retry_failed_trials(study, "host:1", orphaned_after=0)
     assert not study.get_trials(states=(TrialState.WAITING,))
 
 
 def test_a_trial_out_of_retries_frees_its_slot(tmp_path: Path) -> None:
-    study = sqlite_study(tmp_path, max_retry=1)
+    study, storage = sqlite_study(tmp_path, max_retry=1)
     failed = add_trial(study, TrialState.FAIL)
-    retry_failed_trials(study, "host:1", max_retry=1)
+    storage.retry_failed_trials(study, "host:1")
     retry = study.ask()
     study.tell(retry, state=TrialState.FAIL)  # the retry fails in turn: no retry is left
-    retry_failed_trials(study, "host:1", max_retry=1)
+    storage.retry_failed_trials(study, "host:1")
     assert not study.get_trials(states=(TrialState.WAITING,))
     assert not owes_retry(study.trials[retry.number], study.trials, max_retry=1)
     assert held_slots(study.trials, max_retry=1) == 0

@@ -47,7 +47,9 @@ def test_bad_hyperparameters(kwargs: dict, name: str) -> None:
 
 def test_valid_edge_values() -> None:
     for kwargs in (dict(gamma=0.0), dict(gamma=1.0), dict(max_grad_norm=None), dict(learning_rate=lambda _: 1e-3)):
-        REINFORCE("MlpPolicy", "CartPole-v1", **kwargs).learn(50)
+        model = REINFORCE("MlpPolicy", "CartPole-v1", **kwargs).learn(50)
+        assert model.num_timesteps >= 50
+        assert all(getattr(model, name) == value for name, value in kwargs.items())  # kept as given
 
 
 class BrokenEnv(CountingEnv):

@@ -33,7 +33,7 @@ from tqdm import tqdm
 from sb3_reinforce.compare.experiment import DEFAULT_ALGOS, VEC_ENV_TYPES, check_vec_env, known_algos, read_entry
 from sb3_reinforce.compare.report import PER_RUN_DIR, load_summaries, plot_learning_curves, summary_table, to_markdown
 from sb3_reinforce.compare.runner import RunSpec, run
-from sb3_reinforce.stats import SOLVE_THRESHOLDS
+from sb3_reinforce.stats import solve_threshold
 
 __all__ = [
     "build_parser",
@@ -113,7 +113,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _parse_threshold(text: str | None, env_id: str) -> float | None:
     if text is None:
-        return SOLVE_THRESHOLDS.get(env_id)
+        return solve_threshold(env_id)
     try:
         return float(text)
     except ValueError:

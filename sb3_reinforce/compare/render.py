@@ -16,7 +16,7 @@ import pandas as pd
 
 from sb3_reinforce.compare.report import PER_RUN_DIR, overview_table, plot_seed_curves, seed_table, to_markdown
 from sb3_reinforce.seed_reproduction import stopped_reason
-from sb3_reinforce.stats import SOLVE_THRESHOLDS
+from sb3_reinforce.stats import solve_threshold
 
 __all__ = ["build_parser", "main", "render", "render_seed", "update_readme", "write_between_markers"]
 
@@ -55,7 +55,9 @@ def render_seed(out_dir: Path) -> str:
     episodes = pd.concat(finished, ignore_index=True)
     episodes.to_csv(out_dir / "episodes.csv", index=False)
     env_id = str(episodes["env"].iloc[0])
-    threshold = SOLVE_THRESHOLDS[env_id]
+    threshold = solve_threshold(env_id)
+    if threshold is None:
+        raise ValueError(f"{out_dir}: {env_id} has no solve threshold (no reward_threshold in its Gymnasium spec)")
     table = seed_table(episodes, threshold)
     table.to_csv(out_dir / "summary.csv", index=False)
     markdown = to_markdown(_format_seed_table(table))
@@ -83,7 +85,7 @@ def render(out_dir: Path) -> str:
             env_id, threshold = meta["env"], meta["threshold"]
         else:
             env_id = json.loads(next((out_dir / PER_RUN_DIR).glob("*.json")).read_text())["spec"]["env_id"]
-            threshold = SOLVE_THRESHOLDS.get(env_id)
+            threshold = solve_threshold(env_id)
         if write_outputs(out_dir, env_id, threshold) is None:
             raise ValueError(f"{out_dir} has no finished run yet")
         return (out_dir / "summary.md").read_text()

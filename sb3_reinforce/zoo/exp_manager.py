@@ -44,12 +44,12 @@ from sb3_reinforce.zoo.hyperparams_opt import NORMALIZE_OBSERVATIONS_KWARGS, sug
 from sb3_reinforce.zoo.storage import (
     DATABASE_ERRORS,
     FaultTolerance,
+    FaultTolerantStorage,
     caused_by_database,
     check_direction,
     held_slots,
     is_database_url,
     open_database_storage,
-    retry_failed_trials,
     surplus_reason,
 )
 
@@ -318,7 +318,7 @@ class ReinforceExperimentManager(ExperimentManager):
         check_direction(study, optuna.study.StudyDirection.MAXIMIZE)
         self.study_name = study.study_name
         try:
-            self._run_trials(study)
+            self._run_trials(study, storage)
         except KeyboardInterrupt:
             pass
         # rl_zoo3 reports on the study (best trial, CSV, plots), told to run no trial
@@ -329,11 +329,14 @@ class ReinforceExperimentManager(ExperimentManager):
         finally:
             self.n_trials, self.max_total_trials = limits
 
-    def _run_trials(self, study: optuna.Study) -> None:
+    def _run_trials(self, study: optuna.Study, storage: FaultTolerantStorage) -> None:
         """
         Run trials until this worker's ``n_trials`` are done or, with ``max_total_trials``, until the study
         holds that many finished (complete or pruned) trials. A worker that has nothing left to start waits
         for the others' running trials: if their worker dies, the retry is run here.
+
+        :param study: The study
+        :param storage: Its storage (the one the study was created with)
         """
         if "command" not in study.user_attrs:
             study.set_user_attr("command", " ".join(sys.orig_argv))
@@ -346,7 +349,7 @@ class ReinforceExperimentManager(ExperimentManager):
                 optuna.storages.fail_stale_trials(study)  # dead workers' trials: FAIL, and a retry is enqueued
                 # This worker's trials that Optuna marked FAIL when the database went away, and the retries of
                 # workers that died before they could queue theirs
-                retry_failed_trials(study, self._worker_name(), tolerance.max_retry, orphaned_after=tolerance.grace_period)
+                storage.retry_failed_trials(study, self._worker_name(), orphaned_after=tolerance.grace_period)
                 trials = study.get_trials(deepcopy=False)
                 lost_since = None
             except DATABASE_ERRORS as error:
