@@ -229,7 +229,7 @@ def _hub_compatibility() -> Iterator[None]:
     huggingface_sb3.load_from_hub = load_from_hub
     huggingface_hub.repocard.metadata_save = metadata_save
     if adds_metadata:
-        hf_push.generate_metadata = _hub_metadata
+        hf_push.generate_metadata = _hub_metadata  # type: ignore[attr-defined]
     try:
         yield
     finally:
