@@ -201,3 +201,13 @@ def test_value_steps_cost_tiny_budget(tmp_path: Path) -> None:
     assert [row["path"] for row in rows] == ["cached", "full"]
     assert all(int(row["steps"]) >= 500 for row in rows)
     assert all(0 < float(row[key]) < float(row["wall_s"]) for row in rows for key in ("value_steps_s", "env_step_s"))
+
+
+def test_only_unfinished_runs_keep_a_checkpoint() -> None:
+    # benchmarks/README.md's rule: the models under benchmarks/ are checkpoints of runs still unfinished (no summary
+    # JSON beside them); a finished run's checkpoint is removed (the shipped agents are in rl-trained-agents/)
+    models = [path for path in BENCHMARKS.rglob("*") if path.suffix in (".zip", ".pkl", ".pt", ".pth")]
+    for path in models:
+        assert path.name.endswith((".checkpoint.zip", ".checkpoint_vecnormalize.pkl")), f"{path}: not a checkpoint"
+        run = path.name.split(".checkpoint")[0]
+        assert not (path.parent / f"{run}.json").exists(), f"{path}: its run is finished, remove the checkpoint"

@@ -189,3 +189,12 @@ def test_shipped_agent_plays(env_id: str, tmp_path: Path, monkeypatch: pytest.Mo
     run = next(folder / "reinforce" / f"{env_id}_1" for folder in trained_agents_dirs() if (folder / "reinforce").is_dir())
     assert (run / f"{env_id}.zip").is_file() and (run / env_id / "config.yml").is_file()
     assert main(["enjoy", "--algo", "reinforce", "--env", env_id, "--no-render", "-n", "200"]) == 0
+
+
+def test_shipped_config_by_name(tmp_path: Path) -> None:
+    # `-conf reinforce_seed` is the shipped file, from a folder without zoo_configs/ (a wheel user's)
+    args = ["train", "--algo", "reinforce", "--env", ENV_ID, "-n", "300", "-f", str(tmp_path), "-conf", "reinforce_seed"]
+    assert main(args) == 0
+    saved = yaml.load((tmp_path / "reinforce" / f"{ENV_ID}_1" / ENV_ID / "config.yml").read_text(), Loader=yaml.UnsafeLoader)
+    seed_entry = yaml.safe_load((REPO / "zoo_configs" / "reinforce_seed.yml").read_text())[ENV_ID]
+    assert dict(saved)["policy_kwargs"] == seed_entry["policy_kwargs"]

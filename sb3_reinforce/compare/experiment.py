@@ -116,6 +116,7 @@ def read_entry(algo: str, env_id: str, config: Path | None = None) -> ZooEntry:
     if algo not in known:
         raise ValueError(f"Unknown algorithm {algo!r}: choose among {', '.join(known)}")
     manager = _manager(algo, env_id, 0, 0, os.devnull, config)
+    manager.config_flag = "--reinforce-config"  # compare's flag for REINFORCE's file
     with _quiet():
         try:
             hyperparams, saved = manager.read_hyperparameters()

@@ -303,7 +303,8 @@ USAGE = f"""usage: {PROG} {{{",".join(COMMANDS)}}} [zoo arguments ...]
 
 rl-baselines3-zoo (rl_zoo3) with REINFORCE registered as `--algo reinforce`.
 Every argument after the command is rl_zoo3's; `{PROG} COMMAND --help` lists them.
-With --algo reinforce, `train` reads sb3-reinforce's zoo_configs/reinforce.yml unless -conf/--conf-file is given,
+With --algo reinforce, `train` reads sb3-reinforce's zoo_configs/reinforce.yml unless -conf/--conf-file is given
+(`-conf reinforce_seed`: the seed's agent, shipped too),
 and `enjoy`, `record-video`, `record_training` and `push_to_hub` find the shipped agents under -f rl-trained-agents
 (the default of the first three).
 
