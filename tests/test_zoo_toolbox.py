@@ -189,6 +189,9 @@ def test_shipped_agent_plays(env_id: str, tmp_path: Path, monkeypatch: pytest.Mo
     run = next(folder / "reinforce" / f"{env_id}_1" for folder in trained_agents_dirs() if (folder / "reinforce").is_dir())
     assert (run / f"{env_id}.zip").is_file() and (run / env_id / "config.yml").is_file()
     assert main(["enjoy", "--algo", "reinforce", "--env", env_id, "--no-render", "-n", "200"]) == 0
+    # its video goes to ./videos/reinforce-<env>/, not into the shipped folder
+    assert main(["record-video", "--algo", "reinforce", "--env", env_id, "-n", "50"]) == 0
+    assert len(list((tmp_path / "videos" / f"reinforce-{env_id}").glob("*.mp4"))) == 1 and not (run / "videos").exists()
 
 
 def test_shipped_config_by_name(tmp_path: Path) -> None:
@@ -198,3 +201,11 @@ def test_shipped_config_by_name(tmp_path: Path) -> None:
     saved = yaml.load((tmp_path / "reinforce" / f"{ENV_ID}_1" / ENV_ID / "config.yml").read_text(), Loader=yaml.UnsafeLoader)
     seed_entry = yaml.safe_load((REPO / "zoo_configs" / "reinforce_seed.yml").read_text())[ENV_ID]
     assert dict(saved)["policy_kwargs"] == seed_entry["policy_kwargs"]
+
+
+def test_tensorboard_flag(tmp_path: Path) -> None:
+    # -tb (the zoo extra brings tensorboard): REINFORCE's training logs land as TensorBoard event files
+    args = ["train", "--algo", "reinforce", "--env", ENV_ID, "-n", "600", "-f", str(tmp_path / "logs")]
+    assert main([*args, "-tb", str(tmp_path / "tb")]) == 0
+    events = list((tmp_path / "tb" / ENV_ID).glob("REINFORCE_1/events.out.tfevents.*"))
+    assert len(events) == 1 and events[0].stat().st_size > 0

@@ -335,21 +335,29 @@ def _check_env_id(args: Sequence[str]) -> None:
     raise ZooUsageError(f"--env {known.env}: no such environment in the Gymnasium registry.{hint}")
 
 
-def _shipped_agents_flag(args: list[str]) -> list[str]:
+#: Commands that write videos, by default into the agent's folder (``-o/--output-folder`` to change it).
+_VIDEO_COMMANDS = ("record-video", "record_training")
+
+
+def _shipped_agents_flag(command: str, args: list[str]) -> list[str]:
     """
     Point ``-f rl-trained-agents`` (given, or the zoo's default) at the folder that holds the agent for
     ``--algo reinforce``: the current directory's, else the shipped one; raise ZooUsageError if there is none.
+    Videos of a shipped agent go to ``./videos/reinforce-<env>/`` unless ``-o`` says where, not into the package
+    or the repository's ``rl-trained-agents/``.
 
-    :param args: The zoo command's arguments
+    :param command: The zoo command
+    :param args: Its arguments
     :return: The arguments, with ``-f`` set to that folder (unchanged for another ``--algo`` or ``-f``)
     """
     from sb3_reinforce.zoo.exp_manager import ALGO_NAME, ZooUsageError
-    from sb3_reinforce.zoo.trained_agents import TRAINED_AGENTS, agents_folder, shipped_envs
+    from sb3_reinforce.zoo.trained_agents import TRAINED_AGENTS, agents_folder, shipped_envs, trained_agents_dirs
 
     parser = argparse.ArgumentParser(add_help=False)
     parser.add_argument("--algo", type=str, default=None)
     parser.add_argument("--env", type=str, default="CartPole-v1")
     parser.add_argument("-f", "--folder", type=str, default=TRAINED_AGENTS)
+    parser.add_argument("-o", "--output-folder", type=str, default=None)
     known, _ = parser.parse_known_args(args)
     if known.algo != ALGO_NAME:
         return args
@@ -360,6 +368,8 @@ def _shipped_agents_flag(args: list[str]) -> list[str]:
             f"(shipped: {', '.join(shipped_envs()) or 'none'}); train one with `{PROG} train --algo reinforce "
             f"--env {known.env}` and pass -f logs"
         )
+    if command in _VIDEO_COMMANDS and known.output_folder is None and Path(folder).resolve() in trained_agents_dirs():
+        args = [*args, "-o", os.path.join("videos", f"{ALGO_NAME}-{known.env}")]
     return [*args, "-f", folder] if folder != known.folder else args
 
 
@@ -418,7 +428,7 @@ def _run(command: str, args: list[str]) -> int:
         if command in _ENV_COMMANDS:
             _check_env_id(args)
         if command in _AGENT_COMMANDS:
-            sys.argv[1:] = _shipped_agents_flag(args)
+            sys.argv[1:] = _shipped_agents_flag(command, args)
         if command == "train":
             ReinforceExperimentManager.fault_tolerance, sys.argv[1:] = _fault_tolerance_flags(args)
         COMMANDS[command]()
