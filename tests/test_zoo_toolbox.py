@@ -1,14 +1,17 @@
 """
 The rest of rl-baselines3-zoo's toolbox through ``sb3-reinforce-zoo`` with ``--algo reinforce``: the plots
-(``plot_train``, ``all_plots``, ``plot_from_file``), ``record_training``, the Hub's ``push_to_hub`` and
+(``plot_train``, ``all_plots``, ``plot_from_file``), ``record_training``, ``-tb`` and ``--track``, the Hub's ``push_to_hub`` and
 ``load_from_hub`` (everything up to the network: only huggingface_hub's HTTP calls are replaced, by a folder), and
 how ``-f rl-trained-agents`` finds the agents this package ships.
 """
 
 import importlib
 import json
+import os
 import pickle
 import shutil
+import subprocess
+import sys
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -209,3 +212,16 @@ def test_tensorboard_flag(tmp_path: Path) -> None:
     assert main([*args, "-tb", str(tmp_path / "tb")]) == 0
     events = list((tmp_path / "tb" / ENV_ID).glob("REINFORCE_1/events.out.tfevents.*"))
     assert len(events) == 1 and events[0].stat().st_size > 0
+
+
+def test_track_flag_offline(tmp_path: Path) -> None:
+    # --track (the zoo extra brings wandb), offline: the run is recorded locally (wandb-core talks over a Unix socket)
+    env = dict(os.environ, WANDB_MODE="offline", WANDB_DIR=str(tmp_path), WANDB_SILENT="true", PYTHONPATH=str(REPO))
+    args = ["train", "--algo", "reinforce", "--env", ENV_ID, "-n", "600", "-f", "logs", "--track", "--wandb-project-name", "t"]
+    done = subprocess.run(
+        [sys.executable, "-m", "sb3_reinforce.zoo", *args], cwd=tmp_path, env=env, capture_output=True, timeout=300
+    )
+    assert done.returncode == 0, done.stderr.decode()[-2000:]
+    runs = list((tmp_path / "wandb").glob("offline-run-*"))
+    assert len(runs) == 1 and list(runs[0].glob("*.wandb"))
+    assert list((tmp_path / "runs").glob(f"{ENV_ID}__reinforce__*/{ENV_ID}/REINFORCE_1/events.out.tfevents.*"))
