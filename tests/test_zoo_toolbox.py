@@ -1,8 +1,8 @@
 """
 The rest of rl-baselines3-zoo's toolbox through ``sb3-reinforce-zoo`` with ``--algo reinforce``: the plots
-(``plot_train``, ``all_plots``, ``plot_from_file``), ``record_training``, ``-tb`` and ``--track``, the Hub's ``push_to_hub`` and
-``load_from_hub`` (everything up to the network: only huggingface_hub's HTTP calls are replaced, by a folder), and
-how ``-f rl-trained-agents`` finds the agents this package ships.
+(``plot_train``, ``all_plots``, ``plot_from_file``), ``record_training``, ``-tb`` and ``--track``, the Hub's
+``push_to_hub`` and ``load_from_hub`` (everything up to the network: only huggingface_hub's HTTP calls are
+replaced, by a folder), and how ``-f rl-trained-agents`` finds the agents this package ships.
 """
 
 import importlib
