@@ -211,3 +211,13 @@ def test_vec_env_speed_tiny_budget(tmp_path: Path) -> None:
     rows = read_rows(out)
     assert [row["vec_env"] for row in rows] == ["dummy", "subproc", "envpool"]
     assert all(int(row["steps"]) >= 300 and 0 < float(row["env_share"]) < 1 for row in rows)
+
+
+def test_only_unfinished_runs_keep_a_checkpoint() -> None:
+    # benchmarks/README.md's rule: the models under benchmarks/ are checkpoints of runs still unfinished (no summary
+    # JSON beside them); a finished run's checkpoint is removed (the shipped agents are in rl-trained-agents/)
+    models = [path for path in BENCHMARKS.rglob("*") if path.suffix in (".zip", ".pkl", ".pt", ".pth")]
+    for path in models:
+        assert path.name.endswith((".checkpoint.zip", ".checkpoint_vecnormalize.pkl")), f"{path}: not a checkpoint"
+        run = path.name.split(".checkpoint")[0]
+        assert not (path.parent / f"{run}.json").exists(), f"{path}: its run is finished, remove the checkpoint"

@@ -25,10 +25,12 @@ from sb3_reinforce.compare.render import update_readme
 from sb3_reinforce.compare.report import (
     BAND_LABEL,
     PER_RUN_DIR,
+    load_summaries,
     overview_table,
     plot_learning_curves,
     plot_seed_curves,
     seed_table,
+    summary_table,
     to_markdown,
 )
 from sb3_reinforce.compare.runner import RESULT_COLUMNS, RunSpec, code_version
@@ -267,7 +269,11 @@ def test_tiny_compare_with_env_kwargs(tmp_path: Path) -> None:
         (["--budget", "lots"], "--budget must be"),
         (
             ["--env", "MountainCarContinuous-v0", "--algos", "reinforce"],
-            "has no entry for MountainCarContinuous-v0",
+            "has no entry for MountainCarContinuous-v0 (it has: Acrobot-v1, ",  # the list: tests/test_zoo.py
+        ),
+        (
+            ["--env", "MountainCarContinuous-v0", "--algos", "reinforce"],
+            "Add one, or pass another file with --reinforce-config.",  # compare's flag, not the zoo's -conf
         ),
     ],
 )
@@ -278,9 +284,19 @@ def test_bad_input_fails_before_training(
     with pytest.raises(SystemExit) as exc:
         main([*args, "--out", str(out), "--no-progress"])
     assert exc.value.code == 2
-    usage, error = capsys.readouterr().err.split("sb3-reinforce compare: error: ")
-    assert usage.startswith("usage: ") and message in error and error.count("\n") == 1  # one line, no traceback
+    before, error = capsys.readouterr().err.split("sb3-reinforce compare: error: ")
+    assert before == "" and message in error and error.count("\n") == 1  # the one line, no usage, no traceback
     assert not out.exists()  # nothing was started
+
+
+@pytest.mark.parametrize("folder", sorted(Path(__file__).resolve().parents[1].glob("benchmarks/results/verify_*")), ids=str)
+def test_printed_table_fits_a_terminal(folder: Path) -> None:
+    # compare prints summary.md's figures in about 110 columns (summary.md keeps the IQRs: 200+)
+    threshold = json.loads((folder / "comparison.json").read_text())["threshold"]
+    results, summaries = pd.read_csv(folder / "results.csv"), load_summaries(folder)
+    printed = summary_table(results, summaries, threshold, compact=True).to_string(index=False)
+    assert max(len(line) for line in printed.splitlines()) <= 120
+    assert max(len(line) for line in to_markdown(summary_table(results, summaries, threshold)).splitlines()) > 120
 
 
 def test_budget_options() -> None:
@@ -333,7 +349,9 @@ def test_tiny_compare_run_resume_and_append(tmp_path: Path, capsys: pytest.Captu
     assert set(pd.read_csv(out / "results.csv")["algo"]) == {"reinforce"}
 
     main([*common, "--algos", "reinforce,ppo"])  # appends PPO, skips the finished REINFORCE run
-    assert "2 runs (1 already finished)" in capsys.readouterr().out
+    assert f"2 runs of CartPole-v1 -> {out}: 1 already finished, 0 resume from a checkpoint, 1 start from scratch" in (
+        capsys.readouterr().out
+    )
     assert os.stat(finished).st_mtime_ns == mtime
 
     results = pd.read_csv(out / "results.csv")

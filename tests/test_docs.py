@@ -33,19 +33,30 @@ def test_examples_run(page: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatc
     assert os.getcwd() == str(tmp_path)
 
 
-#: The README's command that writes its one-screen summary (the comparison folders, in the order of the rows)
-SUMMARY_COMMAND = re.compile(r"`sb3-reinforce report ((?:benchmarks/results/\S+ )+)--summary README\.md`")
+#: The command that writes a page's one-screen summary (the comparison folders, in the order of the rows), and on
+#: the results page its figure too
+SUMMARY_COMMAND = r"`sb3-reinforce report ((?:benchmarks/results/\S+ )+)--summary {page}(?: --figure (\S+))?`"
 
 
-def test_readme_summary_is_the_committed_results(monkeypatch: pytest.MonkeyPatch) -> None:
-    # The README's results table is what `report --summary` makes of the committed folders, so it cannot go stale
-    from sb3_reinforce.compare.report import overview_table, to_markdown
+@pytest.mark.parametrize("page", ["README.md", "docs/results.md"])
+def test_summary_is_the_committed_results(page: str, monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    # The results tables of the README and of the results page are what `report --summary` makes of the committed
+    # folders, so they cannot go stale; the results page opens with the figure the same command draws
+    from sb3_reinforce.compare.report import overview_table, plot_overview, to_markdown
 
-    readme = (REPO / "README.md").read_text()
-    command = SUMMARY_COMMAND.search(readme)
-    assert command is not None, "the README names the command that writes its summary"
-    monkeypatch.chdir(REPO)  # the folders as the README names them, relative to the repository root
+    text = (REPO / page).read_text()
+    command = re.search(SUMMARY_COMMAND.format(page=re.escape(page)), text)
+    assert command is not None, f"{page} names the command that writes its summary"
+    monkeypatch.chdir(REPO)  # the folders as the pages name them, relative to the repository root
     folders = [Path(name) for name in command.group(1).split()]
-    block = re.search(r"<!-- summary -->\n(.*?)<!-- /summary -->", readme, re.DOTALL)
+    block = re.search(r"<!-- summary -->\n(.*?)<!-- /summary -->", text, re.DOTALL)
     assert block is not None
     assert block.group(1) == to_markdown(overview_table(folders))
+    if page == "docs/results.md":
+        figure = Path(command.group(2))
+        assert text.startswith("# Results\n\n![") and f"]({figure.relative_to('docs')})" in text.split("\n")[2]
+        assert figure.is_file()
+        axes = plot_overview(folders, tmp_path / "figure.png").axes
+        assert [ax.get_title() for ax in axes if ax.get_title()] == list(
+            dict.fromkeys(row.split(" (")[0] for row in overview_table(folders)["env (threshold)"])
+        )

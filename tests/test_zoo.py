@@ -6,6 +6,7 @@ rl-baselines3-zoo integration: ``python -m sb3_reinforce.zoo`` (train, enjoy, be
 import contextlib
 import importlib.util
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -513,3 +514,22 @@ def test_a_worker_that_lost_the_race_to_create_the_tables_tries_again(sqlstate: 
     original = type("DriverError", (Exception,), {"sqlstate": sqlstate})()
     error = sqlalchemy.exc.ProgrammingError("CREATE TABLE studies", {}, original)
     assert _created_by_another_worker(error) is collided
+
+
+#: A file or folder of the repository that a config's comment cites.
+CITED_PATH = re.compile(r"benchmarks/(?:results|configs)/[\w./-]*[\w/]")
+
+
+@pytest.mark.parametrize("name", sorted(CONFIGS))
+def test_cited_results_exist(name: str) -> None:
+    # what an entry's comment cites as its evidence is in the repository (results are never renamed away)
+    cited = set(CITED_PATH.findall(CONFIGS[name].read_text()))
+    assert [path for path in sorted(cited) if not (REPO / path).exists()] == []
+
+
+@pytest.mark.parametrize("env_id", sorted(yaml.safe_load(CONFIGS["reinforce"].read_text())))
+def test_entry_cites_its_verification(env_id: str) -> None:
+    # each entry of the default file says what it measured on fresh seeds, with the folder of that verification
+    blocks = re.split(r"^(?=\S[^\n]*:\n)", CONFIGS["reinforce"].read_text(), flags=re.MULTILINE)
+    block = next(block for block in blocks if block.startswith(f"{env_id}:\n"))
+    assert re.search(r"benchmarks/results/verify_\w+/", block), block

@@ -32,7 +32,7 @@ from tqdm import tqdm
 
 from sb3_reinforce.compare.experiment import DEFAULT_ALGOS, VEC_ENV_TYPES, check_vec_env, known_algos, read_entry
 from sb3_reinforce.compare.report import PER_RUN_DIR, load_summaries, plot_learning_curves, summary_table, to_markdown
-from sb3_reinforce.compare.runner import RunSpec, run
+from sb3_reinforce.compare.runner import Checkpoint, RunSpec, run
 from sb3_reinforce.stats import solve_threshold
 
 __all__ = [
@@ -344,11 +344,16 @@ def main(argv: list[str] | None = None) -> None:
     try:
         specs, threshold = parse_specs(args)
         todo = runs_to_do(specs, out_dir)
-    except ValueError as error:
-        parser.error(str(error))
+    except ValueError as error:  # one line (the usage would hide it): what to change
+        print(f"{parser.prog}: error: {error}", file=sys.stderr)
+        sys.exit(2)
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "comparison.json").write_text(json.dumps(dict(env=args.env, threshold=threshold), indent=2))
-    print(f"{len(specs)} runs ({len(specs) - len(todo)} already finished) of {args.env} -> {out_dir}")
+    resuming = sum(Checkpoint(out_dir / PER_RUN_DIR, spec, {}).exists() for spec in todo)
+    print(
+        f"{len(specs)} runs of {args.env} -> {out_dir}: {len(specs) - len(todo)} already finished, "
+        f"{resuming} resume from a checkpoint, {len(todo) - resuming} start from scratch"
+    )
     for algo in dict.fromkeys(spec.algo for spec in specs):
         spec = next(s for s in specs if s.algo == algo)
         print(f"  {algo}: {spec.budget:,} steps, evaluation every {spec.eval_freq:,} steps x {spec.n_eval_episodes} episodes")
@@ -359,10 +364,10 @@ def main(argv: list[str] | None = None) -> None:
                 _run_all(todo, out_dir, args.workers, show_progress=not args.no_progress, vec_env=args.vec_env)
     except KeyboardInterrupt:
         interrupted = True
-    table = write_outputs(out_dir, args.env, threshold)
-    if table is not None:
-        with pd.option_context("display.width", 250, "display.max_columns", 20, "display.max_colwidth", 60):
-            print(table.to_string(index=False))
+    if write_outputs(out_dir, args.env, threshold) is not None:
+        # the terminal's table: summary.md's figures without the IQRs, to fit about 110 columns
+        compact = summary_table(pd.read_csv(out_dir / "results.csv"), load_summaries(out_dir), threshold, compact=True)
+        print(compact.to_string(index=False))
         print(f"Saved {out_dir / 'results.csv'}, {out_dir / 'summary.md'}, {out_dir / 'learning_curve.png'}")
     if interrupted:
         print(f"Interrupted: the finished runs are kept in {out_dir / PER_RUN_DIR}; run the same command to resume.")

@@ -138,6 +138,7 @@ def read_entry(algo: str, env_id: str, config: Path | None = None, vec_env: str 
     if algo not in known:
         raise ValueError(f"Unknown algorithm {algo!r}: choose among {', '.join(known)}")
     manager = _manager(algo, env_id, 0, 0, os.devnull, config, vec_env)
+    manager.config_flag = "--reinforce-config"  # compare's flag for REINFORCE's file
     with _quiet():
         try:
             hyperparams, saved = manager.read_hyperparameters()

@@ -1,7 +1,8 @@
 """
-``sb3-reinforce report DIR [DIR ...] [--readme README.md]``: rebuild the tables and plots of result folders
-from their raw files, print each markdown table, and optionally write them into a README between the
-markers ``<!-- results:DIR -->`` and ``<!-- /results:DIR -->``.
+``sb3-reinforce report DIR [DIR ...] [--readme README.md] [--summary FILE] [--figure PNG]``: rebuild the tables
+and plots of result folders from their raw files, print each markdown table, and optionally write them into a
+README between the markers ``<!-- results:DIR -->`` and ``<!-- /results:DIR -->``, the one-screen summary into a
+file, and the results-at-a-glance figure (a panel per env) into a PNG.
 
 A folder with ``per_run/`` is a comparison (``sb3-reinforce compare``); a folder with ``episodes_seed*.csv`` is
 a seed reproduction (``sb3-reinforce seed``).
@@ -14,7 +15,14 @@ from pathlib import Path
 
 import pandas as pd
 
-from sb3_reinforce.compare.report import PER_RUN_DIR, overview_table, plot_seed_curves, seed_table, to_markdown
+from sb3_reinforce.compare.report import (
+    PER_RUN_DIR,
+    overview_table,
+    plot_overview,
+    plot_seed_curves,
+    seed_table,
+    to_markdown,
+)
 from sb3_reinforce.seed_reproduction import stopped_reason
 from sb3_reinforce.stats import solve_threshold
 
@@ -137,6 +145,13 @@ def build_parser() -> argparse.ArgumentParser:
         "(default: no file is written)",
     )
     parser.add_argument(
+        "--figure",
+        type=Path,
+        default=None,
+        help="also draw the comparison folders' learning curves into this PNG, one panel per env (the IQM over seeds "
+        "with its 95%% bootstrap CI, the threshold), the envs and algorithms of --summary (default: no figure)",
+    )
+    parser.add_argument(
         "--readme",
         type=Path,
         default=None,
@@ -157,8 +172,11 @@ def main(argv: list[str] | None = None) -> None:
         except ValueError as error:
             parser.error(str(error))
         print(f"## {name}\n\n{tables[name.rstrip('/')]}")
+    comparisons = [Path(name) for name in args.dirs if (Path(name) / PER_RUN_DIR).is_dir()]
+    if args.figure is not None:
+        plot_overview(comparisons, args.figure)
+        print(f"{args.figure}: figure written")
     if args.summary is not None:
-        comparisons = [Path(name) for name in args.dirs if (Path(name) / PER_RUN_DIR).is_dir()]
         try:
             overview = to_markdown(overview_table(comparisons))
         except ValueError as error:

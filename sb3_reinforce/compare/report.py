@@ -7,7 +7,7 @@ episode-based figures.
 """
 
 import json
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import matplotlib
@@ -32,6 +32,7 @@ __all__ = [
     "load_summaries",
     "overview_table",
     "plot_learning_curves",
+    "plot_overview",
     "plot_seed_curves",
     "seed_table",
     "summary_table",
@@ -54,6 +55,12 @@ def _median_iqr(values: Sequence[float], fmt: str = "{:,.0f}") -> str:
     if reached == 0:
         return f"not reached (0/{len(values)})"
     return f"{show(median)} [{show(q25)}, {show(q75)}] ({reached}/{len(values)} reached)"
+
+
+def _median(values: Sequence[float], fmt: str) -> str:
+    """The median over seeds of steps or seconds to the threshold, not-reached seeds counted as infinitely late."""
+    median = quantile_with_inf(list(values), 0.5) if len(values) else np.inf
+    return "not reached" if np.isinf(median) else fmt.format(median)
 
 
 def load_summaries(out_dir: Path) -> dict[tuple[str, int], dict]:
@@ -108,6 +115,26 @@ def _steps_short(steps: float) -> str:
     return f"{rounded / 1e6:g}M" if rounded >= 1e6 else f"{rounded / 1e3:g}k"
 
 
+def _first_of_each(folders: Sequence[Path]) -> Iterator[tuple[Path, str, float | None, str, pd.DataFrame]]:
+    """
+    Each environment and algorithm of comparison folders once: from the first folder given that has it.
+
+    :param folders: Comparison output folders (``sb3-reinforce compare --out``)
+    :return: (folder, env id, threshold, algorithm, its rows of ``results.csv``), in the folders' order
+    """
+    seen: set[tuple[str, str]] = set()
+    for folder in folders:
+        if not (Path(folder) / "results.csv").exists():
+            raise ValueError(f"{folder} has no results.csv: no finished run yet (or not a comparison folder)")
+        meta = json.loads((Path(folder) / "comparison.json").read_text())
+        env_id, threshold = str(meta["env"]), meta["threshold"]
+        results = pd.read_csv(Path(folder) / "results.csv")
+        for algo, algo_df in results.groupby("algo", sort=False):
+            if (env_id, str(algo)) not in seen:
+                seen.add((env_id, str(algo)))
+                yield Path(folder), env_id, threshold, str(algo), algo_df
+
+
 def overview_table(folders: Sequence[Path]) -> pd.DataFrame:
     """
     The one-screen summary over comparisons: one row per environment and algorithm, from each folder's
@@ -120,45 +147,39 @@ def overview_table(folders: Sequence[Path]) -> pd.DataFrame:
         deterministic and of the sampled-action evaluations, and the folder
     """
     rows = []
-    seen: set[tuple[str, str]] = set()
-    for folder in folders:
-        if not (Path(folder) / "results.csv").exists():
-            raise ValueError(f"{folder} has no results.csv: no finished run yet (or not a comparison folder)")
-        meta = json.loads((Path(folder) / "comparison.json").read_text())
-        env_id, threshold = str(meta["env"]), meta["threshold"]
-        results = pd.read_csv(Path(folder) / "results.csv")
-        for algo, algo_df in results.groupby("algo", sort=False):
-            if (env_id, str(algo)) in seen:
-                continue
-            seen.add((env_id, str(algo)))
-            per_seed, trained = _per_seed(algo_df)
-            row = {
-                "env (threshold)": env_id if threshold is None else f"{env_id} ({threshold:g})",
-                "algorithm": _ALGO_NAMES.get(str(algo), str(algo).upper()),
-                "budget": _steps_short(float(np.median([df["steps"].iloc[-1] for df in per_seed]))),
-            }
-            if threshold is not None:
-                steps_to, seconds_to = _reach(trained, threshold)
-                median_steps, median_seconds = (quantile_with_inf(v, 0.5) for v in (steps_to, seconds_to))
-                seeds = _seed_range([int(s) for s in algo_df["seed"].unique()])
-                row["seeds reaching"] = f"{int(np.isfinite(steps_to).sum())}/{len(per_seed)} (seeds {seeds})"
-                row["median steps to reach"] = "not reached" if np.isinf(median_steps) else f"{median_steps:,.0f}"
-                row["median seconds to reach"] = "not reached" if np.isinf(median_seconds) else f"{median_seconds:,.1f}"
-            row["final IQM"] = f"{iqm(_finals(per_seed, 'mean_return')):.1f}"
-            if "mean_return_stochastic" in algo_df:
-                row["final IQM, sampled actions"] = f"{iqm(_finals(per_seed, 'mean_return_stochastic')):.1f}"
-            row["folder"] = f"`{Path(folder).as_posix().rstrip('/')}`"
-            rows.append(row)
+    for folder, env_id, threshold, algo, algo_df in _first_of_each(folders):
+        per_seed, trained = _per_seed(algo_df)
+        row = {
+            "env (threshold)": env_id if threshold is None else f"{env_id} ({threshold:g})",
+            "algorithm": _ALGO_NAMES.get(str(algo), str(algo).upper()),
+            "budget": _steps_short(float(np.median([df["steps"].iloc[-1] for df in per_seed]))),
+        }
+        if threshold is not None:
+            steps_to, seconds_to = _reach(trained, threshold)
+            median_steps, median_seconds = (quantile_with_inf(v, 0.5) for v in (steps_to, seconds_to))
+            seeds = _seed_range([int(s) for s in algo_df["seed"].unique()])
+            row["seeds reaching"] = f"{int(np.isfinite(steps_to).sum())}/{len(per_seed)} (seeds {seeds})"
+            row["median steps to reach"] = "not reached" if np.isinf(median_steps) else f"{median_steps:,.0f}"
+            row["median seconds to reach"] = "not reached" if np.isinf(median_seconds) else f"{median_seconds:,.1f}"
+        row["final IQM"] = f"{iqm(_finals(per_seed, 'mean_return')):.1f}"
+        if "mean_return_stochastic" in algo_df:
+            row["final IQM, sampled actions"] = f"{iqm(_finals(per_seed, 'mean_return_stochastic')):.1f}"
+        row["folder"] = f"`{Path(folder).as_posix().rstrip('/')}`"
+        rows.append(row)
     return pd.DataFrame(rows)
 
 
-def summary_table(results: pd.DataFrame, summaries: dict[tuple[str, int], dict], threshold: float | None) -> pd.DataFrame:
+def summary_table(
+    results: pd.DataFrame, summaries: dict[tuple[str, int], dict], threshold: float | None, compact: bool = False
+) -> pd.DataFrame:
     """
     One row per algorithm: the comparison's figures over seeds (deterministic evaluation returns).
 
     :param results: The rows of ``results.csv``
     :param summaries: :func:`load_summaries`'s result (for steps/s and peak memory)
     :param threshold: The solve threshold (None: no threshold columns)
+    :param compact: Short headers, and medians without their IQR (the seeds reaching the threshold in a column of
+        their own): the terminal's table, about 110 characters wide; else ``summary.md``'s
     :return: A table of strings, ready to print
     """
     rows = []
@@ -170,23 +191,29 @@ def summary_table(results: pd.DataFrame, summaries: dict[tuple[str, int], dict],
             "algorithm": _ALGO_NAMES.get(str(algo), str(algo).upper()),
             "seeds": len(per_seed),
             "steps": f"{int(np.median([df['steps'].iloc[-1] for df in per_seed])):,}",
-            "final score, IQM [95% CI]": f"{iqm(finals):.1f} [{low:.1f}, {high:.1f}]",
+            "final IQM [95% CI]" if compact else "final score, IQM [95% CI]": f"{iqm(finals):.1f} [{low:.1f}, {high:.1f}]",
         }
         if "mean_return_stochastic" in algo_df:
-            row["final sampled-action score, IQM"] = f"{iqm(_finals(per_seed, 'mean_return_stochastic')):.1f}"
+            header = "sampled" if compact else "final sampled-action score, IQM"
+            row[header] = f"{iqm(_finals(per_seed, 'mean_return_stochastic')):.1f}"
         if threshold is not None:
             steps_to, seconds_to = _reach(trained, threshold)
-            row[f"steps to {threshold:g}, median [IQR]"] = _median_iqr(steps_to)
-            row[f"seconds to {threshold:g}, median [IQR]"] = _median_iqr(seconds_to, "{:,.1f}")
+            if compact:
+                row[f"reached {threshold:g}"] = f"{int(np.isfinite(steps_to).sum())}/{len(per_seed)}"
+                row[f"steps to {threshold:g}"] = _median(steps_to, "{:,.0f}")
+                row[f"s to {threshold:g}"] = _median(seconds_to, "{:,.1f}")
+            else:
+                row[f"steps to {threshold:g}, median [IQR]"] = _median_iqr(steps_to)
+                row[f"seconds to {threshold:g}, median [IQR]"] = _median_iqr(seconds_to, "{:,.1f}")
         seeds = [int(seed) for seed in algo_df["seed"].unique()]
         sps = [summaries[(str(algo), s)]["steps_per_s"] for s in seeds if (str(algo), s) in summaries]
         rss = [summaries[(str(algo), s)]["peak_rss_mb"] for s in seeds if (str(algo), s) in summaries]
-        row["steps/s, median"] = f"{np.median(sps):,.0f}" if sps else "-"
-        row["peak RSS MB, max"] = f"{max(rss):,.0f}" if rss else "-"
+        row["steps/s" if compact else "steps/s, median"] = f"{np.median(sps):,.0f}" if sps else "-"
+        row["RSS MB" if compact else "peak RSS MB, max"] = f"{max(rss):,.0f}" if rss else "-"
         cpu = [
             float(summaries[(str(algo), s)]["cpu_time_s"]) for s in seeds if "cpu_time_s" in summaries.get((str(algo), s), {})
         ]
-        row["CPU s per run, median"] = f"{np.median(cpu):,.0f}" if cpu else "-"
+        row["CPU s" if compact else "CPU s per run, median"] = f"{np.median(cpu):,.0f}" if cpu else "-"
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -336,3 +363,52 @@ def plot_seed_curves(episodes: pd.DataFrame, threshold: float, path: Path, title
         ax.set_yscale("symlog", linthresh=max(abs(threshold), 1.0))
     ylabel = f"training return, {window}-episode moving mean"
     return _finish_plot(fig, ax, threshold, "training episodes", ylabel, title, path, band=counts.nunique() == 1)
+
+
+#: Panels per row of :func:`plot_overview`'s figure.
+_OVERVIEW_COLUMNS = 4
+
+
+def plot_overview(folders: Sequence[Path], path: Path) -> Figure:
+    """
+    Results at a glance: one panel per environment, one learning curve per algorithm (the IQM over seeds of the
+    deterministic evaluation return, with the 95% bootstrap CI of that IQM as its band), the solve threshold drawn;
+    the environments and algorithms of :func:`overview_table`, from the same folders.
+
+    :param folders: Comparison output folders, in the order of the panels
+    :param path: The PNG to write
+    :return: The figure, saved and closed
+    """
+    panels: dict[str, list[tuple[float | None, str, pd.DataFrame]]] = {}
+    for _, env_id, threshold, algo, algo_df in _first_of_each(folders):
+        panels.setdefault(env_id, []).append((threshold, algo, algo_df))
+    n_rows = -(-len(panels) // _OVERVIEW_COLUMNS)
+    fig, axes = plt.subplots(n_rows, _OVERVIEW_COLUMNS, figsize=(4.2 * _OVERVIEW_COLUMNS, 3.3 * n_rows), squeeze=False)
+    colors = {name: f"C{i}" for i, name in enumerate(_ALGO_NAMES)}
+    for ax, (env_id, curves) in zip(axes.flat, panels.items(), strict=False):  # the last row may have empty axes
+        for _, algo, algo_df in curves:
+            table = algo_df.pivot_table(index="eval_index", columns="seed", values="mean_return")
+            steps = algo_df.groupby("eval_index")["steps"].median().loc[table.index].to_numpy()
+            runs = table.to_numpy().T
+            middle = [iqm(column[~np.isnan(column)]) for column in runs.T]
+            bounds = [bootstrap_ci(column[~np.isnan(column)], iqm, n_resamples=500) for column in runs.T]
+            label = f"{_ALGO_NAMES.get(algo, algo.upper())} ({table.shape[1]} seeds)"
+            (line,) = ax.plot(steps, middle, label=label, color=colors.get(algo))
+            ax.fill_between(steps, [b[0] for b in bounds], [b[1] for b in bounds], color=line.get_color(), alpha=0.2)
+        threshold = curves[0][0]
+        if threshold is not None:
+            ax.axhline(threshold, color="black", linestyle="--", linewidth=1, label=f"solved ({threshold:g})")
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda x, _: f"{x / 1e3:g}k" if x < 1e6 else f"{x / 1e6:g}M"))
+        ax.set_title(env_id)
+        ax.set_xlabel("environment steps")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    for ax in axes.flat[len(panels) :]:
+        ax.axis("off")
+    for row in axes:
+        row[0].set_ylabel("evaluation return")
+    fig.suptitle("IQM over seeds of the deterministic evaluation return; band: its 95% bootstrap CI", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return fig

@@ -289,12 +289,16 @@ class Checkpoint:
         """CPU seconds of the run so far: this process's (environment processes included), plus those it resumes."""
         return self.cpu_time_before + process_tree_cpu_s()
 
+    def exists(self) -> bool:
+        """Whether a complete checkpoint (the model and, written last, the JSON) is there, of whichever settings."""
+        return self.state_path.exists() and self.model_path.exists()
+
     def load_state(self) -> dict[str, Any] | None:
         """
         The saved state, or None where there is no complete checkpoint of this very run (other settings or
         hyperparameters, or a damaged file).
         """
-        if not (self.state_path.exists() and self.model_path.exists()):
+        if not self.exists():
             return None
         try:
             state = json.loads(self.state_path.read_text())

@@ -1,7 +1,8 @@
 """
 REINFORCE in rl-baselines3-zoo (``rl_zoo3``, the ``zoo`` extra): ``python -m sb3_reinforce.zoo`` or
-``sb3-reinforce-zoo`` runs rl_zoo3's ``train``, ``enjoy``, ``benchmark`` and ``record-video`` with
-``--algo reinforce`` registered. Importing this package registers nothing; :func:`register` does.
+``sb3-reinforce-zoo`` runs rl_zoo3's commands (``train``, ``enjoy``, ``benchmark``, ``record-video``,
+``record_training``, the plots, the Hub's ``push_to_hub`` and ``load_from_hub``) with ``--algo reinforce``
+registered. Importing this package registers nothing; :func:`register` does.
 """
 
 from sb3_reinforce.zoo.cli import COMMANDS, main, register

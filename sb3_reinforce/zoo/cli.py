@@ -1,7 +1,10 @@
 """
 The ``sb3-reinforce-zoo`` command: rl_zoo3's commands, with REINFORCE registered as ``--algo reinforce``.
 
-Each command is rl_zoo3's own (same flags, same outputs); this module only registers REINFORCE first.
+Each command is rl_zoo3's own (same flags, same outputs); this module registers REINFORCE first, finds the
+shipped agents for ``-f rl-trained-agents`` (:mod:`sb3_reinforce.zoo.trained_agents`), and works around what
+rl_zoo3's scripts assume (a clone of the zoo, ``ffmpeg`` on the PATH) or what breaks them upstream (see
+:func:`_hub_compatibility`).
 """
 
 import argparse
@@ -9,11 +12,14 @@ import contextlib
 import difflib
 import importlib
 import os
+import re
 import runpy
 import shutil
 import subprocess
 import sys
+import tempfile
 from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from sb3_reinforce.cli import missing_extra
@@ -62,21 +68,62 @@ def _enjoy() -> None:
 
 
 def _record_video() -> None:
-    runpy.run_module("rl_zoo3.record_video", run_name="__main__", alter_sys=True)
+    _run_zoo_script("rl_zoo3.record_video")
+
+
+def _record_training() -> None:
+    with _subprocesses_through_this_entry_point(), _ffmpeg_on_path():
+        _run_zoo_script("rl_zoo3.record_training")
+
+
+def _push_to_hub() -> None:
+    with _hub_compatibility(), _ffmpeg_on_path():
+        _run_zoo_script("rl_zoo3.push_to_hub")
+
+
+def _load_from_hub() -> None:
+    with _hub_compatibility():
+        _run_zoo_script("rl_zoo3.load_from_hub")
+
+
+def _plot_train() -> None:
+    from rl_zoo3.plots import plot_train
+
+    plot_train()
+
+
+def _all_plots() -> None:
+    from rl_zoo3.plots import all_plots
+
+    all_plots()
+
+
+def _plot_from_file() -> None:
+    from rl_zoo3.plots import plot_from_file
+
+    plot_from_file()
+
+
+#: rl_zoo3's scripts that start another of its scripts in a subprocess, by a command line that only works from a
+#: clone of the zoo and does not know REINFORCE (benchmark: ``python enjoy.py``; record_training: ``python -m
+#: rl_zoo3.record_video``) -> this package's command that runs it instead.
+_SUBPROCESS_COMMANDS = {("python", "enjoy.py"): "enjoy", ("python", "-m", "rl_zoo3.record_video"): "record-video"}
 
 
 @contextlib.contextmanager
-def _enjoy_through_this_entry_point() -> Iterator[None]:
+def _subprocesses_through_this_entry_point() -> Iterator[None]:
     """
-    rl_zoo3's benchmark evaluates each agent with ``subprocess.call(["python", "enjoy.py", ...])``, which only
-    works from a clone of the zoo and does not know REINFORCE: run those evaluations as
-    ``<this python> -m sb3_reinforce.zoo enjoy ...`` instead. Any other call is left alone.
+    Run the zoo's script-in-a-subprocess calls (``_SUBPROCESS_COMMANDS``) as ``<this python> -m sb3_reinforce.zoo
+    COMMAND ...`` instead. Any other call is left alone.
     """
     original_call = subprocess.call
 
     def call(command: Any, *args: Any, **kwargs: Any) -> int:
-        if isinstance(command, list) and command[:2] == ["python", "enjoy.py"]:
-            command = [sys.executable, "-m", "sb3_reinforce.zoo", "enjoy", *command[2:]]
+        if isinstance(command, list):
+            for prefix, ours in _SUBPROCESS_COMMANDS.items():
+                if tuple(command[: len(prefix)]) == prefix:
+                    command = [sys.executable, "-m", "sb3_reinforce.zoo", ours, *command[len(prefix) :]]
+                    break
         return original_call(command, *args, **kwargs)
 
     subprocess.call = call  # type: ignore[assignment]
@@ -84,6 +131,118 @@ def _enjoy_through_this_entry_point() -> Iterator[None]:
         yield
     finally:
         subprocess.call = original_call
+
+
+@contextlib.contextmanager
+def _ffmpeg_on_path() -> Iterator[None]:
+    """
+    rl_zoo3's record_training and huggingface_sb3's replay video call the ``ffmpeg`` program by name (``os.system``).
+    Where the PATH has none, put the one that moviepy's dependency imageio-ffmpeg ships there, as ``ffmpeg``.
+    """
+    if shutil.which("ffmpeg") is not None:
+        yield
+        return
+    import imageio_ffmpeg
+
+    saved_path = os.environ.get("PATH", "")
+    with tempfile.TemporaryDirectory(prefix="sb3-reinforce-ffmpeg-") as folder:
+        os.symlink(imageio_ffmpeg.get_ffmpeg_exe(), os.path.join(folder, "ffmpeg"))
+        os.environ["PATH"] = os.pathsep.join([folder, saved_path])
+        try:
+            yield
+        finally:
+            os.environ["PATH"] = saved_path
+
+
+def _hub_metadata(model_name: str, env_id: str, mean_reward: float, std_reward: float) -> dict[str, Any]:
+    """
+    The model card's metadata (tags and the evaluation result) that rl_zoo3's push_to_hub writes, built with
+    huggingface_hub's public ``metadata_eval_result``, as huggingface_sb3 2.x's ``generate_metadata`` did.
+
+    :param model_name: The algorithm's class name
+    :param env_id: The environment's id
+    :param mean_reward: Mean return of the evaluation
+    :param std_reward: Its standard deviation
+    :return: The metadata, as ``huggingface_hub.repocard.metadata_save`` takes it
+    """
+    from huggingface_hub.repocard import metadata_eval_result
+
+    evaluation = metadata_eval_result(
+        model_pretty_name=model_name,
+        task_pretty_name="reinforcement-learning",
+        task_id="reinforcement-learning",
+        metrics_pretty_name="mean_reward",
+        metrics_id="mean_reward",
+        metrics_value=f"{mean_reward:.2f} +/- {std_reward:.2f}",
+        dataset_pretty_name=env_id,
+        dataset_id=env_id,
+    )
+    tags = [env_id, "deep-reinforcement-learning", "reinforcement-learning", "stable-baselines3", "sb3-reinforce"]
+    return {"library_name": "stable-baselines3", "tags": tags, **evaluation}
+
+
+#: The zoo's commands in the model card push_to_hub writes -> the ones that know ``--algo reinforce``.
+_CARD_COMMANDS = (
+    (re.compile(r"python -m rl_zoo3\.(\w+)"), rf"{PROG} \1"),
+    (re.compile(r"pip install rl_zoo3"), 'pip install "sb3-reinforce[zoo]"'),
+)
+
+
+@contextlib.contextmanager
+def _hub_compatibility() -> Iterator[None]:
+    """
+    What rl_zoo3 2.9.2's Hub scripts need from the packages they run with, for the time they run:
+
+    - push_to_hub imports ``generate_metadata`` from huggingface_sb3, which its successor sb3-team-hf-integration 3.x
+      (the distribution rl_zoo3 2.9.2 requires) no longer has (an ``ImportError`` before anything runs): provide it
+      (:func:`_hub_metadata`), only where it is missing;
+    - push_to_hub's model card tells readers to run ``python -m rl_zoo3.enjoy ...``, which does not know REINFORCE:
+      the card names this command instead (rewritten as ``metadata_save`` writes the card's metadata);
+    - load_from_hub treats a repository without ``vec_normalize.pkl`` as "no normalization" by catching requests'
+      ``HTTPError``, but huggingface_hub 1.x and later raise its own ``EntryNotFoundError`` (not a requests error):
+      turn that one into requests' ``HTTPError``, which is what the script expects.
+    """
+    import huggingface_hub.repocard
+    import huggingface_sb3
+    import requests
+    from huggingface_hub.errors import EntryNotFoundError
+
+    # the module (the package's attribute of that name is its push_to_hub function)
+    hf_push = importlib.import_module("huggingface_sb3.push_to_hub")
+
+    original_load, original_metadata_save = huggingface_sb3.load_from_hub, huggingface_hub.repocard.metadata_save
+    adds_metadata = not hasattr(hf_push, "generate_metadata")
+
+    def load_from_hub(repo_id: str, filename: str) -> str:
+        try:
+            return original_load(repo_id, filename)
+        except EntryNotFoundError as error:
+            raise requests.exceptions.HTTPError(str(error)) from error
+
+    def metadata_save(local_path: Any, data: dict[str, Any]) -> None:
+        card = Path(local_path)
+        text = card.read_text(encoding="utf-8")
+        for pattern, replacement in _CARD_COMMANDS:
+            text = pattern.sub(replacement, text)
+        card.write_text(text, encoding="utf-8")
+        original_metadata_save(local_path, data)
+
+    huggingface_sb3.load_from_hub = load_from_hub
+    huggingface_hub.repocard.metadata_save = metadata_save
+    if adds_metadata:
+        hf_push.generate_metadata = _hub_metadata  # type: ignore[attr-defined]
+    try:
+        yield
+    finally:
+        huggingface_sb3.load_from_hub = original_load
+        huggingface_hub.repocard.metadata_save = original_metadata_save
+        if adds_metadata:
+            del hf_push.generate_metadata
+
+
+def _run_zoo_script(module: str, init_globals: dict[str, Any] | None = None) -> None:
+    """Run one of rl_zoo3's scripts (a module with a ``__main__`` block) as its command line would."""
+    runpy.run_module(module, init_globals=init_globals, run_name="__main__", alter_sys=True)
 
 
 #: The copy of its table that rl_zoo3's benchmark writes into the current directory (its own repository's root).
@@ -119,8 +278,8 @@ def _table_stays_in_benchmark_dir() -> Iterator[dict[str, Any]]:
 
 
 def _benchmark() -> None:
-    with _enjoy_through_this_entry_point(), _table_stays_in_benchmark_dir() as init_globals:
-        runpy.run_module("rl_zoo3.benchmark", init_globals=init_globals, run_name="__main__", alter_sys=True)
+    with _subprocesses_through_this_entry_point(), _table_stays_in_benchmark_dir() as init_globals:
+        _run_zoo_script("rl_zoo3.benchmark", init_globals)
 
 
 #: Command name -> the rl_zoo3 command it runs.
@@ -129,15 +288,26 @@ COMMANDS: dict[str, Callable[[], None]] = {
     "enjoy": _enjoy,
     "benchmark": _benchmark,
     "record-video": _record_video,
+    "record_training": _record_training,
+    "plot_train": _plot_train,
+    "all_plots": _all_plots,
+    "plot_from_file": _plot_from_file,
+    "push_to_hub": _push_to_hub,
+    "load_from_hub": _load_from_hub,
 }
-# Commands that take --env (checked here first, for a short error instead of a traceback).
-_ENV_COMMANDS = ("train", "enjoy", "record-video")
+# Commands that take one --env (checked here first, for a short error instead of a traceback).
+_ENV_COMMANDS = ("train", "enjoy", "record-video", "record_training", "push_to_hub", "load_from_hub")
+# Commands that load a trained agent from -f/--folder (default rl-trained-agents: see trained_agents.agents_folder).
+_AGENT_COMMANDS = ("enjoy", "record-video", "record_training", "push_to_hub")
 
 USAGE = f"""usage: {PROG} {{{",".join(COMMANDS)}}} [zoo arguments ...]
 
 rl-baselines3-zoo (rl_zoo3) with REINFORCE registered as `--algo reinforce`.
 Every argument after the command is rl_zoo3's; `{PROG} COMMAND --help` lists them.
-With --algo reinforce, `train` reads sb3-reinforce's zoo_configs/reinforce.yml unless -conf/--conf-file is given.
+With --algo reinforce, `train` reads sb3-reinforce's zoo_configs/reinforce.yml unless -conf/--conf-file is given
+(`-conf reinforce_seed`: the seed's agent, shipped too),
+and `enjoy`, `record-video`, `record_training` and `push_to_hub` find the shipped agents under -f rl-trained-agents
+(the default of the first three).
 `train --vec-env envpool` steps the training environments in EnvPool (the envpool extra; the env ids it offers:
 sb3_reinforce.envpool_vec_env.ENVPOOL_ENV_IDS); evaluations stay on Gymnasium's environment.
 
@@ -166,6 +336,44 @@ def _check_env_id(args: Sequence[str]) -> None:
     close = difflib.get_close_matches(known.env, list(gym.envs.registry), n=3)
     hint = f" Did you mean {' or '.join(close)}?" if close else ""
     raise ZooUsageError(f"--env {known.env}: no such environment in the Gymnasium registry.{hint}")
+
+
+#: Commands that write videos, by default into the agent's folder (``-o/--output-folder`` to change it).
+_VIDEO_COMMANDS = ("record-video", "record_training")
+
+
+def _shipped_agents_flag(command: str, args: list[str]) -> list[str]:
+    """
+    Point ``-f rl-trained-agents`` (given, or the zoo's default) at the folder that holds the agent for
+    ``--algo reinforce``: the current directory's, else the shipped one; raise ZooUsageError if there is none.
+    Videos of a shipped agent go to ``./videos/reinforce-<env>/`` unless ``-o`` says where, not into the package
+    or the repository's ``rl-trained-agents/``.
+
+    :param command: The zoo command
+    :param args: Its arguments
+    :return: The arguments, with ``-f`` set to that folder (unchanged for another ``--algo`` or ``-f``)
+    """
+    from sb3_reinforce.zoo.exp_manager import ALGO_NAME, ZooUsageError
+    from sb3_reinforce.zoo.trained_agents import TRAINED_AGENTS, agents_folder, shipped_envs, trained_agents_dirs
+
+    parser = argparse.ArgumentParser(add_help=False)
+    parser.add_argument("--algo", type=str, default=None)
+    parser.add_argument("--env", type=str, default="CartPole-v1")
+    parser.add_argument("-f", "--folder", type=str, default=TRAINED_AGENTS)
+    parser.add_argument("-o", "--output-folder", type=str, default=None)
+    known, _ = parser.parse_known_args(args)
+    if known.algo != ALGO_NAME:
+        return args
+    folder = agents_folder(known.folder, known.algo, known.env)
+    if folder is None:
+        raise ZooUsageError(
+            f"-f {known.folder}: no trained REINFORCE agent for --env {known.env} here or shipped with sb3-reinforce "
+            f"(shipped: {', '.join(shipped_envs()) or 'none'}); train one with `{PROG} train --algo reinforce "
+            f"--env {known.env}` and pass -f logs"
+        )
+    if command in _VIDEO_COMMANDS and known.output_folder is None and Path(folder).resolve() in trained_agents_dirs():
+        args = [*args, "-o", os.path.join("videos", f"{ALGO_NAME}-{known.env}")]
+    return [*args, "-f", folder] if folder != known.folder else args
 
 
 def _fault_tolerance_flags(args: Sequence[str]) -> tuple["FaultTolerance", list[str]]:
@@ -232,6 +440,8 @@ def _run(command: str, args: list[str]) -> int:
     try:
         if command in _ENV_COMMANDS:
             _check_env_id(args)
+        if command in _AGENT_COMMANDS:
+            sys.argv[1:] = _shipped_agents_flag(command, args)
         if command == "train":
             ReinforceExperimentManager.fault_tolerance, rest = _fault_tolerance_flags(args)
             ReinforceExperimentManager.envpool, sys.argv[1:] = _vec_env_flag(rest)

@@ -7,10 +7,22 @@ The files live in the repository's ``zoo_configs/`` folder. A wheel ships them i
 
 from pathlib import Path
 
-__all__ = ["CONFIG_NAMES", "config_dirs", "config_path"]
+__all__ = ["CONFIG_NAMES", "config_dirs", "config_path", "shipped_dirs"]
 
 #: The hyperparameter files this package provides, by name (``<name>.yml``).
 CONFIG_NAMES = ("reinforce", "reinforce_seed")
+
+
+def shipped_dirs(package_folder: str, source_folder: str) -> list[Path]:
+    """
+    Where a folder of files shipped with the package is: inside the installed package, then in a source checkout.
+
+    :param package_folder: Its name inside ``sb3_reinforce/zoo/`` once installed (``pyproject.toml`` maps it)
+    :param source_folder: Its name at the repository's root
+    :return: Both candidate paths, the installed one first
+    """
+    here = Path(__file__).resolve().parent
+    return [here / package_folder, here.parents[1] / source_folder]
 
 
 def config_dirs() -> list[Path]:
@@ -19,8 +31,7 @@ def config_dirs() -> list[Path]:
 
     :return: The installed package's ``configs/`` folder, then the source checkout's ``zoo_configs/``.
     """
-    here = Path(__file__).resolve().parent
-    return [here / "configs", here.parents[1] / "zoo_configs"]
+    return shipped_dirs("configs", "zoo_configs")
 
 
 def config_path(name: str = "reinforce") -> Path:

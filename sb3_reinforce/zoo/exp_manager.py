@@ -39,7 +39,7 @@ from sb3_reinforce.envpool_vec_env import ENVPOOL, WrapperSpec, check_envpool_en
 from sb3_reinforce.reinforce.buffers import RolloutLimitError
 from sb3_reinforce.reinforce.finite_checks import NonFiniteError
 from sb3_reinforce.reinforce.hyperparameters import hyperparameter_defaults, validate_hyperparameters
-from sb3_reinforce.zoo.configs import config_path
+from sb3_reinforce.zoo.configs import CONFIG_NAMES, config_path
 from sb3_reinforce.zoo.hyperparams_opt import NORMALIZE_OBSERVATIONS_KWARGS, suggest_n_envs, suggest_normalize_observations
 from sb3_reinforce.zoo.storage import (
     DATABASE_ERRORS,
@@ -123,6 +123,8 @@ class ReinforceExperimentManager(ExperimentManager):
 
     #: Heartbeats and retries of studies in a database (``sb3-reinforce-zoo train`` sets it from its flags).
     fault_tolerance: FaultTolerance = FaultTolerance()
+    #: The flag that names another hyperparameter file, in the errors (``sb3-reinforce compare`` has its own).
+    config_flag: str = "-conf/--conf-file"
     #: How long a worker keeps trying to reach a database that went away before it gives up (seconds).
     reconnect_timeout: float = 300.0
     #: Train on EnvPool whatever ``vec_env_type`` says (``sb3-reinforce-zoo train --vec-env envpool`` sets it:
@@ -132,6 +134,8 @@ class ReinforceExperimentManager(ExperimentManager):
     def __init__(self, args: Any, algo: str, *positional: Any, config: str | None = None, **kwargs: Any) -> None:
         if config is None and algo == ALGO_NAME:
             config = str(config_path("reinforce"))
+        elif config in CONFIG_NAMES:  # a shipped file by its name (`-conf reinforce_seed`), from anywhere
+            config = str(config_path(config))
         if config is not None and config.endswith((".yml", ".yaml")) and not os.path.isfile(config):
             raise ZooUsageError(f"Hyperparameter file {config} (-conf/--conf-file) does not exist")
         kwargs["config"] = config
@@ -166,7 +170,7 @@ class ReinforceExperimentManager(ExperimentManager):
             if env_id not in entries and "default" not in entries and not (self._is_atari and "atari" in entries):
                 raise ZooUsageError(
                     f"{self.config} has no entry for {env_id} (it has: {', '.join(sorted(entries))}). "
-                    "Add one, or pass another file with -conf/--conf-file."
+                    f"Add one, or pass another file with {self.config_flag}."
                 )
         hyperparams, saved_hyperparams = super().read_hyperparameters()
         if self.trial_id == 0 and self.storage and self.study_name:
