@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from sb3_reinforce.stats import first_crossing
+from sb3_reinforce.lab.stats import first_crossing
 
 
 def read_results(folder: Path) -> pd.DataFrame:

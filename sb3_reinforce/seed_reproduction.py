@@ -1,5 +1,5 @@
 """
-The seed re-run: the seed's agent (:func:`~sb3_reinforce.presets.seed_hyperparams`) trained for a fixed
+The seed re-run: the seed's agent (:func:`~sb3_reinforce.lab.seed.presets.seed_hyperparams`) trained for a fixed
 number of episodes, one training-episode return per row, x axis in episodes, as the blog post reported it.
 
     python -m sb3_reinforce.seed_reproduction --env LunarLander-v3 --episodes 5000 --seeds 3 --out DIR
@@ -9,7 +9,7 @@ Each seed runs in its own process and appends one row per finished training epis
 episodes are all in the file is skipped when the command is run again.
 
 The environments are made as the seed's scripts made them where that is part of the experiment
-(:func:`~sb3_reinforce.seed_envs.make_seed_env`: MountainCar without a time limit, CarRacing's 502-step
+(:func:`~sb3_reinforce.lab.seed.envs.make_seed_env`: MountainCar without a time limit, CarRacing's 502-step
 episodes, its pixels and its discrete actions). Differences from the seed, on purpose: the seed ran its other
 envs unwrapped too and cut a LunarLander episode after 120 s of wall-clock time or when its summed reward fell
 below -250. Here the registered time limit (LunarLander-v3: 1,000 steps, CartPole-v1: 500 steps) replaces the
@@ -40,10 +40,10 @@ import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.monitor import Monitor
 
-from sb3_reinforce.presets import seed_hyperparams
+from sb3_reinforce.lab.seed.envs import make_seed_env
+from sb3_reinforce.lab.seed.presets import seed_hyperparams
 from sb3_reinforce.reinforce import REINFORCE
 from sb3_reinforce.reinforce.buffers import RolloutLimitError
-from sb3_reinforce.seed_envs import make_seed_env
 
 __all__ = ["EPISODE_COLUMNS", "RewardFloor", "build_parser", "main", "run_seed", "stopped_reason"]
 

@@ -34,10 +34,7 @@ from sb3_reinforce.compare.report import (
     to_markdown,
 )
 from sb3_reinforce.compare.runner import RESULT_COLUMNS, RunSpec, code_version
-from sb3_reinforce.seed_reproduction import EPISODE_COLUMNS, RewardFloor
-from sb3_reinforce.seed_reproduction import build_parser as build_seed_parser
-from sb3_reinforce.seed_reproduction import main as seed_main
-from sb3_reinforce.stats import (
+from sb3_reinforce.lab.stats import (
     THRESHOLDS_WITHOUT_GYMNASIUM,
     bootstrap_ci,
     first_crossing,
@@ -46,6 +43,9 @@ from sb3_reinforce.stats import (
     rolling_mean,
     solve_threshold,
 )
+from sb3_reinforce.seed_reproduction import EPISODE_COLUMNS, RewardFloor
+from sb3_reinforce.seed_reproduction import build_parser as build_seed_parser
+from sb3_reinforce.seed_reproduction import main as seed_main
 from sb3_reinforce.version import __version__
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -177,7 +177,7 @@ def test_compare_builds_the_agent_zoo_train_builds(tmp_path: Path) -> None:
     import yaml
 
     from sb3_reinforce import REINFORCE
-    from sb3_reinforce.zoo import main as zoo_main
+    from sb3_reinforce.lab.zoo import main as zoo_main
 
     budget, seed = 3400, 5
     args = ["train", "--algo", "reinforce", "--env", "Pendulum-v1", "-n", str(budget), "--seed", str(seed)]

@@ -10,7 +10,7 @@ import pytest
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 from sb3_reinforce import REINFORCE
-from sb3_reinforce.env_errors import EnvError, EnvWorkerDiedError, make_safe_vec_env
+from sb3_reinforce.lab.env_errors import EnvError, EnvWorkerDiedError, make_safe_vec_env
 from tests.envs import CountingEnv
 
 # fork: fast to start under pytest. It is also the hardest case for a dead worker: the other workers
@@ -85,7 +85,7 @@ torch.set_num_threads(1)
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import SubprocVecEnv
 from sb3_reinforce import REINFORCE
-from sb3_reinforce.env_errors import EnvWorkerDiedError, make_safe_vec_env
+from sb3_reinforce.lab.env_errors import EnvWorkerDiedError, make_safe_vec_env
 from tests.envs import CountingEnv
 
 class Kill(BaseCallback):

@@ -23,15 +23,15 @@ from sb3_reinforce import REINFORCE
 from sb3_reinforce.cli import main as cli_main
 from sb3_reinforce.compare.cli import main as compare_main
 from sb3_reinforce.compare.report import PER_RUN_DIR
-from sb3_reinforce.envpool_vec_env import (
+from sb3_reinforce.lab.envpool_vec_env import (
     ENVPOOL_ENV_IDS,
     WrapperSpec,
     make_envpool_vec_env,
     split_wrappers,
 )
-from sb3_reinforce.zoo import main as zoo_main
-from sb3_reinforce.zoo.configs import config_path
-from sb3_reinforce.zoo.exp_manager import wrapper_specs
+from sb3_reinforce.lab.zoo import main as zoo_main
+from sb3_reinforce.lab.zoo.configs import config_path
+from sb3_reinforce.lab.zoo.exp_manager import wrapper_specs
 
 #: The CarRacing-v3 zoo entry's wrappers, as the config says them
 CAR_RACING_WRAPPERS = wrapper_specs(yaml.safe_load(config_path("reinforce").read_text())["CarRacing-v3"]["env_wrapper"])

@@ -14,7 +14,7 @@ REPO = Path(__file__).resolve().parents[1]
     [
         (["sb3_reinforce.cli", "compare", "--env", "CartPole-v1"], "compare"),
         (["sb3_reinforce.cli", "report", "."], "compare"),
-        (["sb3_reinforce.zoo", "benchmark", "--help"], "zoo"),
+        (["sb3_reinforce.lab.zoo", "benchmark", "--help"], "zoo"),
     ],
 )
 def test_a_missing_extra_is_named(argv: list[str], extra: str) -> None:

@@ -21,8 +21,8 @@ import rl_zoo3.exp_manager
 from optuna.trial import TrialState
 
 from sb3_reinforce import REINFORCE
-from sb3_reinforce.zoo import main
-from sb3_reinforce.zoo.storage import (
+from sb3_reinforce.lab.zoo import main
+from sb3_reinforce.lab.zoo.storage import (
     FaultTolerance,
     FaultTolerantStorage,
     StorageError,
@@ -60,7 +60,7 @@ def optimize_args(storage: str, study: str, budget: int, total: int, grace_perio
 def start_worker(args: list[str], seed: int, cwd: Path) -> subprocess.Popen:
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]), CUDA_VISIBLE_DEVICES="")
     return subprocess.Popen(
-        [sys.executable, "-m", "sb3_reinforce.zoo", *args, "--seed", str(seed), "-f", str(cwd / f"logs{seed}")],
+        [sys.executable, "-m", "sb3_reinforce.lab.zoo", *args, "--seed", str(seed), "-f", str(cwd / f"logs{seed}")],
         cwd=cwd,
         env=env,
         stdout=subprocess.PIPE,

@@ -7,7 +7,7 @@ import torch as th
 from torch import nn
 
 from sb3_reinforce import REINFORCE
-from sb3_reinforce.presets import seed_hyperparams
+from sb3_reinforce.lab.seed.presets import seed_hyperparams
 
 
 @pytest.mark.parametrize(

@@ -1,5 +1,5 @@
 """
-rl-baselines3-zoo integration: ``python -m sb3_reinforce.zoo`` (train, enjoy, benchmark, record-video,
+rl-baselines3-zoo integration: ``python -m sb3_reinforce.lab.zoo`` (train, enjoy, benchmark, record-video,
 --optimize, distributed studies), the shipped zoo_configs, and the errors bad input gives.
 """
 
@@ -24,9 +24,9 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 from sb3_reinforce import REINFORCE
-from sb3_reinforce.presets import seed_hyperparams
-from sb3_reinforce.zoo import config_path, main
-from sb3_reinforce.zoo.hyperparams_opt import (
+from sb3_reinforce.lab.seed.presets import seed_hyperparams
+from sb3_reinforce.lab.zoo import config_path, main
+from sb3_reinforce.lab.zoo.hyperparams_opt import (
     NORMALIZE_OBSERVATIONS,
     convert_reinforce_params,
     parse_zoo_entry,
@@ -34,7 +34,7 @@ from sb3_reinforce.zoo.hyperparams_opt import (
     suggest_n_envs,
     suggest_normalize_observations,
 )
-from sb3_reinforce.zoo.storage import owes_retry
+from sb3_reinforce.lab.zoo.storage import owes_retry
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -56,10 +56,10 @@ REQUIRED_ENVS = {
 
 
 def run_zoo(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    """Run ``python -m sb3_reinforce.zoo ARGS`` in a fresh interpreter (the real command line)."""
+    """Run ``python -m sb3_reinforce.lab.zoo ARGS`` in a fresh interpreter (the real command line)."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]), CUDA_VISIBLE_DEVICES="")
     return subprocess.run(
-        [sys.executable, "-m", "sb3_reinforce.zoo", *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=600
+        [sys.executable, "-m", "sb3_reinforce.lab.zoo", *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=600
     )
 
 
@@ -95,12 +95,12 @@ def test_configs_ship_in_the_installed_package(tmp_path: Path) -> None:
             for file in source.glob(pattern):
                 shutil.copy(file, target / file.name)
     # Load the copied configs module by itself (it needs nothing else), so that __file__ is the copy's.
-    spec = importlib.util.spec_from_file_location("installed_configs", site / "sb3_reinforce/zoo/configs.py")
+    spec = importlib.util.spec_from_file_location("installed_configs", site / "sb3_reinforce/lab/zoo/configs.py")
     assert spec is not None and spec.loader is not None
     installed = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(installed)
     paths = [installed.config_path("reinforce"), installed.config_path("reinforce_seed")]
-    configs = (site / "sb3_reinforce/zoo/configs").resolve()
+    configs = (site / "sb3_reinforce/lab/zoo/configs").resolve()
     assert paths == [configs / "reinforce.yml", configs / "reinforce_seed.yml"]
     assert paths[0].read_text() == CONFIGS["reinforce"].read_text()
 
@@ -383,7 +383,7 @@ def test_distributed_study_two_workers(tmp_path: Path) -> None:
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]), CUDA_VISIBLE_DEVICES="")
     workers = [
         subprocess.Popen(
-            [sys.executable, "-m", "sb3_reinforce.zoo", *args, "--seed", str(seed), "-f", f"logs{seed}"],
+            [sys.executable, "-m", "sb3_reinforce.lab.zoo", *args, "--seed", str(seed), "-f", f"logs{seed}"],
             cwd=tmp_path,
             env=env,
             stdout=subprocess.PIPE,
@@ -509,7 +509,7 @@ def test_a_trial_whose_objective_is_not_finite_records_it(tmp_path: Path, monkey
 def test_a_worker_that_lost_the_race_to_create_the_tables_tries_again(sqlstate: str | None, collided: bool) -> None:
     # PostgreSQL answers the loser of two workers creating the tables at once with "relation ... already exists"
     # (a ProgrammingError, measured in a fresh-clone CI run): that is a retry, any other error is the user's
-    from sb3_reinforce.zoo.storage import _created_by_another_worker
+    from sb3_reinforce.lab.zoo.storage import _created_by_another_worker
 
     original = type("DriverError", (Exception,), {"sqlstate": sqlstate})()
     error = sqlalchemy.exc.ProgrammingError("CREATE TABLE studies", {}, original)

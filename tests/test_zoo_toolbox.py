@@ -24,8 +24,8 @@ from huggingface_hub import HfApi
 from huggingface_hub.errors import HfHubHTTPError, RemoteEntryNotFoundError
 
 from sb3_reinforce import REINFORCE
-from sb3_reinforce.zoo import main
-from sb3_reinforce.zoo.trained_agents import TRAINED_AGENTS, agents_folder, shipped_envs, trained_agents_dirs
+from sb3_reinforce.lab.zoo import main
+from sb3_reinforce.lab.zoo.trained_agents import TRAINED_AGENTS, agents_folder, shipped_envs, trained_agents_dirs
 
 matplotlib.use("Agg")  # plot_train ends with plt.show()
 
@@ -219,7 +219,7 @@ def test_track_flag_offline(tmp_path: Path) -> None:
     env = dict(os.environ, WANDB_MODE="offline", WANDB_DIR=str(tmp_path), WANDB_SILENT="true", PYTHONPATH=str(REPO))
     args = ["train", "--algo", "reinforce", "--env", ENV_ID, "-n", "600", "-f", "logs", "--track", "--wandb-project-name", "t"]
     done = subprocess.run(
-        [sys.executable, "-m", "sb3_reinforce.zoo", *args], cwd=tmp_path, env=env, capture_output=True, timeout=300
+        [sys.executable, "-m", "sb3_reinforce.lab.zoo", *args], cwd=tmp_path, env=env, capture_output=True, timeout=300
     )
     assert done.returncode == 0, done.stderr.decode()[-2000:]
     runs = list((tmp_path / "wandb").glob("offline-run-*"))

@@ -33,7 +33,7 @@ from tqdm import tqdm
 from sb3_reinforce.compare.experiment import DEFAULT_ALGOS, VEC_ENV_TYPES, check_vec_env, known_algos, read_entry
 from sb3_reinforce.compare.report import PER_RUN_DIR, load_summaries, plot_learning_curves, summary_table, to_markdown
 from sb3_reinforce.compare.runner import Checkpoint, RunSpec, run
-from sb3_reinforce.stats import solve_threshold
+from sb3_reinforce.lab.stats import solve_threshold
 
 __all__ = [
     "build_parser",

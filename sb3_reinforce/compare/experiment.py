@@ -1,6 +1,6 @@
 """
 Each run of the comparison is built by rl_zoo3's ``ExperimentManager`` (through
-:class:`~sb3_reinforce.zoo.exp_manager.ReinforceExperimentManager`), exactly as ``sb3-reinforce-zoo train``
+:class:`~sb3_reinforce.lab.zoo.exp_manager.ReinforceExperimentManager`), exactly as ``sb3-reinforce-zoo train``
 builds it from the same entry: the model, its training environments (wrappers, frame stack, ``VecNormalize``,
 ``env_kwargs``, monitor), the config's callbacks and schedules. Only the evaluation is the comparison's own (a
 separate environment built by the same manager, seeded apart from the training ones).
@@ -22,7 +22,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 
-from sb3_reinforce.envpool_vec_env import ENVPOOL, check_envpool_env
+from sb3_reinforce.lab.envpool_vec_env import ENVPOOL, check_envpool_env
 
 __all__ = [
     "DEFAULT_ALGOS",
@@ -41,7 +41,7 @@ DEFAULT_ALGOS = ("reinforce", "ppo", "a2c")
 #: The evaluation environment's seed is the run's seed plus this (the training envs use seed .. seed + n_envs - 1).
 EVAL_SEED_OFFSET = 10_000
 #: How a run steps its training environments (rl_zoo3's ``--vec-env``): in its own process (SB3's ``DummyVecEnv``),
-#: one process per environment (``SubprocVecEnv``), or EnvPool's C++ threads (:mod:`sb3_reinforce.envpool_vec_env`,
+#: one process per environment (``SubprocVecEnv``), or EnvPool's C++ threads (:mod:`sb3_reinforce.lab.envpool_vec_env`,
 #: its own implementation of the same environments). The environments and their seeds are the same for the first
 #: two; the evaluation environment is Gymnasium's with all three.
 VEC_ENV_TYPES = ("dummy", "subproc", ENVPOOL)
@@ -66,7 +66,7 @@ def known_algos() -> list[str]:
     """Every algorithm the installed rl_zoo3 knows, REINFORCE included (registered first)."""
     from rl_zoo3.utils import ALGOS
 
-    from sb3_reinforce.zoo import register
+    from sb3_reinforce.lab.zoo import register
 
     register()
     return sorted(ALGOS)
@@ -82,7 +82,7 @@ def _quiet() -> Iterator[None]:
 def _manager(
     algo: str, env_id: str, seed: int, budget: int, log_folder: str, config: Path | None, vec_env: str = "dummy"
 ) -> Any:
-    from sb3_reinforce.zoo.exp_manager import ReinforceExperimentManager
+    from sb3_reinforce.lab.zoo.exp_manager import ReinforceExperimentManager
 
     known_algos()  # registers REINFORCE
     args = argparse.Namespace(algo=algo, env=env_id, seed=seed, n_timesteps=budget, conf_file=config, source="compare")

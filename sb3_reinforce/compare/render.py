@@ -23,8 +23,8 @@ from sb3_reinforce.compare.report import (
     seed_table,
     to_markdown,
 )
+from sb3_reinforce.lab.stats import solve_threshold
 from sb3_reinforce.seed_reproduction import stopped_reason
-from sb3_reinforce.stats import solve_threshold
 
 __all__ = ["build_parser", "main", "render", "render_seed", "update_readme", "write_between_markers"]
 

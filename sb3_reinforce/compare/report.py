@@ -21,7 +21,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 from matplotlib.ticker import FuncFormatter
 
-from sb3_reinforce.stats import bootstrap_ci, first_crossing, iqm, quantile_with_inf, rolling_mean
+from sb3_reinforce.lab.stats import bootstrap_ci, first_crossing, iqm, quantile_with_inf, rolling_mean
 
 #: Subfolder of a comparison's output folder with each run's evaluations (CSV) and summary (JSON).
 PER_RUN_DIR = "per_run"

@@ -9,7 +9,7 @@ biases, no value network, Adam (TF1 defaults: eps 1e-8), one whole episode per u
 then standardized, no gradient clipping, no entropy bonus. Learning rate and gamma are the seed script's
 for that environment. The seed's CarRacing script used its ``tf.layers`` variant of the same network
 (weights ``N(0, 0.3**2)``, biases 0.1) on pixels it preprocessed itself: the environment side of the seed's
-scripts (time limits, pixels, actions) is :func:`sb3_reinforce.seed_envs.make_seed_env`.
+scripts (time limits, pixels, actions) is :func:`sb3_reinforce.lab.seed.envs.make_seed_env`.
 """
 
 from typing import Any

@@ -2,7 +2,7 @@
 Where the REINFORCE hyperparameter files (``zoo_configs/*.yml``) are, in a source checkout and once installed.
 
 The files live in the repository's ``zoo_configs/`` folder. A wheel ships them inside the package, as
-``sb3_reinforce/zoo/configs/`` (``pyproject.toml`` maps that package folder to ``zoo_configs/``).
+``sb3_reinforce/lab/zoo/configs/`` (``pyproject.toml`` maps that package folder to ``zoo_configs/``).
 """
 
 from pathlib import Path
@@ -17,12 +17,12 @@ def shipped_dirs(package_folder: str, source_folder: str) -> list[Path]:
     """
     Where a folder of files shipped with the package is: inside the installed package, then in a source checkout.
 
-    :param package_folder: Its name inside ``sb3_reinforce/zoo/`` once installed (``pyproject.toml`` maps it)
+    :param package_folder: Its name inside ``sb3_reinforce/lab/zoo/`` once installed (``pyproject.toml`` maps it)
     :param source_folder: Its name at the repository's root
     :return: Both candidate paths, the installed one first
     """
     here = Path(__file__).resolve().parent
-    return [here / package_folder, here.parents[1] / source_folder]
+    return [here / package_folder, here.parents[2] / source_folder]
 
 
 def config_dirs() -> list[Path]:

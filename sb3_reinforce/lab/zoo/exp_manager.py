@@ -10,11 +10,11 @@ rl_zoo3's ``ExperimentManager``, with what REINFORCE needs on top.
   and prunes trials whose hyperparameters make REINFORCE fail (non-finite loss, a rollout too long)
   instead of ending the whole study.
 - ``--optimize`` with a database ``--storage`` (PostgreSQL, any algorithm) runs with heartbeats, retries the
-  trials of dead workers and reconnects after a dropped connection (see :mod:`sb3_reinforce.zoo.storage`);
+  trials of dead workers and reconnects after a dropped connection (see :mod:`sb3_reinforce.lab.zoo.storage`);
   with ``--max-total-trials``, every worker keeps going until the study holds exactly that many finished
   trials, running the retries of workers that died.
 - ``vec_env_type="envpool"`` (``--vec-env envpool``) steps the training environments in EnvPool
-  (:mod:`sb3_reinforce.envpool_vec_env`), the entry's wrappers done there; evaluation environments stay Gymnasium's.
+  (:mod:`sb3_reinforce.lab.envpool_vec_env`), the entry's wrappers done there; evaluation environments stay Gymnasium's.
 """
 
 import contextlib
@@ -35,13 +35,10 @@ from rl_zoo3.utils import ALGOS
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 
-from sb3_reinforce.envpool_vec_env import ENVPOOL, WrapperSpec, check_envpool_env, envpool_vec_env_class, split_wrappers
-from sb3_reinforce.reinforce.buffers import RolloutLimitError
-from sb3_reinforce.reinforce.finite_checks import NonFiniteError
-from sb3_reinforce.reinforce.hyperparameters import hyperparameter_defaults, validate_hyperparameters
-from sb3_reinforce.zoo.configs import CONFIG_NAMES, config_path
-from sb3_reinforce.zoo.hyperparams_opt import NORMALIZE_OBSERVATIONS_KWARGS, suggest_n_envs, suggest_normalize_observations
-from sb3_reinforce.zoo.storage import (
+from sb3_reinforce.lab.envpool_vec_env import ENVPOOL, WrapperSpec, check_envpool_env, envpool_vec_env_class, split_wrappers
+from sb3_reinforce.lab.zoo.configs import CONFIG_NAMES, config_path
+from sb3_reinforce.lab.zoo.hyperparams_opt import NORMALIZE_OBSERVATIONS_KWARGS, suggest_n_envs, suggest_normalize_observations
+from sb3_reinforce.lab.zoo.storage import (
     DATABASE_ERRORS,
     FaultTolerance,
     FaultTolerantStorage,
@@ -52,6 +49,9 @@ from sb3_reinforce.zoo.storage import (
     open_database_storage,
     surplus_reason,
 )
+from sb3_reinforce.reinforce.buffers import RolloutLimitError
+from sb3_reinforce.reinforce.finite_checks import NonFiniteError
+from sb3_reinforce.reinforce.hyperparameters import hyperparameter_defaults, validate_hyperparameters
 
 __all__ = ["ALGO_NAME", "ReinforceExperimentManager", "ZooUsageError"]
 
@@ -220,7 +220,7 @@ class ReinforceExperimentManager(ExperimentManager):
     def create_envs(self, n_envs: int, eval_env: bool = False, no_log: bool = False) -> VecEnv:
         """
         rl_zoo3's environments; on EnvPool, the training ones are EnvPool's (with the entry's wrappers, see
-        :func:`~sb3_reinforce.envpool_vec_env.make_envpool_vec_env`) and the evaluation ones stay Gymnasium's
+        :func:`~sb3_reinforce.lab.envpool_vec_env.make_envpool_vec_env`) and the evaluation ones stay Gymnasium's
         (``DummyVecEnv``), the reference for scores.
 
         :param n_envs: Number of environments
@@ -251,7 +251,7 @@ class ReinforceExperimentManager(ExperimentManager):
         hyperparameters prunes the trial.
 
         A trial that fails by an error of its own (not one of the database) records it in its ``error`` user
-        attribute: it is not retried (:func:`~sb3_reinforce.zoo.storage.owes_retry`); so does a trial whose
+        attribute: it is not retried (:func:`~sb3_reinforce.lab.zoo.storage.owes_retry`); so does a trial whose
         objective value is not finite (Optuna records it FAIL).
 
         :param trial: The Optuna trial
@@ -304,7 +304,7 @@ class ReinforceExperimentManager(ExperimentManager):
     def hyperparameters_optimization(self) -> None:
         """
         rl_zoo3's optimization; with a database storage, a fault-tolerant one: the trials run one at a time
-        against a storage with heartbeats and retries (:func:`~sb3_reinforce.zoo.storage.open_database_storage`),
+        against a storage with heartbeats and retries (:func:`~sb3_reinforce.lab.zoo.storage.open_database_storage`),
         then rl_zoo3's own code writes the report of the finished study.
         """
         if not self.optimize_hyperparameters or not is_database_url(self.storage):

@@ -1,11 +1,11 @@
 """
-REINFORCE in rl-baselines3-zoo (``rl_zoo3``, the ``zoo`` extra): ``python -m sb3_reinforce.zoo`` or
+REINFORCE in rl-baselines3-zoo (``rl_zoo3``, the ``zoo`` extra): ``python -m sb3_reinforce.lab.zoo`` or
 ``sb3-reinforce-zoo`` runs rl_zoo3's commands (``train``, ``enjoy``, ``benchmark``, ``record-video``,
 ``record_training``, the plots, the Hub's ``push_to_hub`` and ``load_from_hub``) with ``--algo reinforce``
 registered. Importing this package registers nothing; :func:`register` does.
 """
 
-from sb3_reinforce.zoo.cli import COMMANDS, main, register
-from sb3_reinforce.zoo.configs import config_path
+from sb3_reinforce.lab.zoo.cli import COMMANDS, main, register
+from sb3_reinforce.lab.zoo.configs import config_path
 
 __all__ = ["COMMANDS", "config_path", "main", "register"]

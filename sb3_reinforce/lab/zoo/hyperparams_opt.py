@@ -8,7 +8,7 @@ Optuna search space of REINFORCE, for rl-baselines3-zoo's ``--optimize`` and for
 - ``sample_reinforce_params`` is the zoo's sampler signature ``(trial, n_actions, n_envs, additional_args)``
   and returns constructor arguments of :class:`~sb3_reinforce.REINFORCE` (the same entry, parsed as the zoo
   parses a file). The number of environments and observation normalization are searched too: they are
-  applied by :class:`sb3_reinforce.zoo.exp_manager.ReinforceExperimentManager` before the trial's environments
+  applied by :class:`sb3_reinforce.lab.zoo.exp_manager.ReinforceExperimentManager` before the trial's environments
   are built (observation normalization only where the config has no ``normalize`` of its own).
 
 Every lever keeps the update Monte-Carlo policy gradient (one step per batch of whole episodes): batch size,
@@ -193,7 +193,7 @@ def sample_reinforce_params(
     :param trial: The Optuna trial
     :param n_actions: Size of the action vector (unused)
     :param n_envs: Number of environments the trial's training env has; must be the trial's ``n_envs``
-        sample, which :class:`~sb3_reinforce.zoo.exp_manager.ReinforceExperimentManager` applies
+        sample, which :class:`~sb3_reinforce.lab.zoo.exp_manager.ReinforceExperimentManager` applies
     :param additional_args: The zoo's extra arguments (unused)
     :return: Keyword arguments for :class:`~sb3_reinforce.REINFORCE` (without ``n_envs`` and ``normalize``,
         which set the env: the experiment manager suggests and applies ``normalize_observations`` itself)
@@ -202,7 +202,7 @@ def sample_reinforce_params(
     if sampled_n_envs != n_envs:
         raise RuntimeError(
             f"The trial sampled n_envs={sampled_n_envs} but its environment has {n_envs}: run the search through "
-            "`python -m sb3_reinforce.zoo train --algo reinforce --optimize ...`, which applies the sampled n_envs."
+            "`python -m sb3_reinforce.lab.zoo train --algo reinforce --optimize ...`, which applies the sampled n_envs."
         )
     kwargs = parse_zoo_entry(zoo_entry(suggest_reinforce_params(trial, search_normalization=False)))
     del kwargs["n_envs"]

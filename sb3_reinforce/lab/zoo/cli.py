@@ -2,7 +2,7 @@
 The ``sb3-reinforce-zoo`` command: rl_zoo3's commands, with REINFORCE registered as ``--algo reinforce``.
 
 Each command is rl_zoo3's own (same flags, same outputs); this module registers REINFORCE first, finds the
-shipped agents for ``-f rl-trained-agents`` (:mod:`sb3_reinforce.zoo.trained_agents`), and works around what
+shipped agents for ``-f rl-trained-agents`` (:mod:`sb3_reinforce.lab.zoo.trained_agents`), and works around what
 rl_zoo3's scripts assume (a clone of the zoo, ``ffmpeg`` on the PATH) or what breaks them upstream (see
 :func:`_hub_compatibility`).
 """
@@ -23,10 +23,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from sb3_reinforce.cli import missing_extra
-from sb3_reinforce.envpool_vec_env import ENVPOOL
+from sb3_reinforce.lab.envpool_vec_env import ENVPOOL
 
 if TYPE_CHECKING:
-    from sb3_reinforce.zoo.storage import FaultTolerance
+    from sb3_reinforce.lab.zoo.storage import FaultTolerance
 
 __all__ = ["COMMANDS", "main", "register"]
 
@@ -37,7 +37,7 @@ def register() -> None:
     """
     Register REINFORCE in rl_zoo3 as ``reinforce``: its algorithm table (``ALGOS``, read by train, enjoy,
     record-video, benchmark), its Optuna sampler and converter, and the experiment manager that
-    ``rl_zoo3.train`` uses (:class:`~sb3_reinforce.zoo.exp_manager.ReinforceExperimentManager`).
+    ``rl_zoo3.train`` uses (:class:`~sb3_reinforce.lab.zoo.exp_manager.ReinforceExperimentManager`).
     Safe to call more than once. The zoo builds its ``--algo`` choices when a command parses its
     arguments, so this must run before.
     """
@@ -46,8 +46,8 @@ def register() -> None:
     from rl_zoo3.utils import ALGOS
 
     from sb3_reinforce import REINFORCE
-    from sb3_reinforce.zoo.exp_manager import ALGO_NAME, ReinforceExperimentManager
-    from sb3_reinforce.zoo.hyperparams_opt import convert_reinforce_params, sample_reinforce_params
+    from sb3_reinforce.lab.zoo.exp_manager import ALGO_NAME, ReinforceExperimentManager
+    from sb3_reinforce.lab.zoo.hyperparams_opt import convert_reinforce_params, sample_reinforce_params
 
     ALGOS[ALGO_NAME] = REINFORCE
     HYPERPARAMS_SAMPLER[ALGO_NAME] = sample_reinforce_params
@@ -113,7 +113,7 @@ _SUBPROCESS_COMMANDS = {("python", "enjoy.py"): "enjoy", ("python", "-m", "rl_zo
 @contextlib.contextmanager
 def _subprocesses_through_this_entry_point() -> Iterator[None]:
     """
-    Run the zoo's script-in-a-subprocess calls (``_SUBPROCESS_COMMANDS``) as ``<this python> -m sb3_reinforce.zoo
+    Run the zoo's script-in-a-subprocess calls (``_SUBPROCESS_COMMANDS``) as ``<this python> -m sb3_reinforce.lab.zoo
     COMMAND ...`` instead. Any other call is left alone.
     """
     original_call = subprocess.call
@@ -122,7 +122,7 @@ def _subprocesses_through_this_entry_point() -> Iterator[None]:
         if isinstance(command, list):
             for prefix, ours in _SUBPROCESS_COMMANDS.items():
                 if tuple(command[: len(prefix)]) == prefix:
-                    command = [sys.executable, "-m", "sb3_reinforce.zoo", ours, *command[len(prefix) :]]
+                    command = [sys.executable, "-m", "sb3_reinforce.lab.zoo", ours, *command[len(prefix) :]]
                     break
         return original_call(command, *args, **kwargs)
 
@@ -309,7 +309,7 @@ With --algo reinforce, `train` reads sb3-reinforce's zoo_configs/reinforce.yml u
 and `enjoy`, `record-video`, `record_training` and `push_to_hub` find the shipped agents under -f rl-trained-agents
 (the default of the first three).
 `train --vec-env envpool` steps the training environments in EnvPool (the envpool extra; the env ids it offers:
-sb3_reinforce.envpool_vec_env.ENVPOOL_ENV_IDS); evaluations stay on Gymnasium's environment.
+sb3_reinforce.lab.envpool_vec_env.ENVPOOL_ENV_IDS); evaluations stay on Gymnasium's environment.
 
 `train --optimize` with a database --storage (postgresql://USER:PASSWORD@HOST:5432/DB) also takes:
   --heartbeat-interval S  seconds between the heartbeats of a running trial (default: 60)
@@ -323,7 +323,7 @@ def _check_env_id(args: Sequence[str]) -> None:
     import gymnasium as gym
     import rl_zoo3.import_envs  # noqa: F401  (registers the zoo's extra environments)
 
-    from sb3_reinforce.zoo.exp_manager import ZooUsageError
+    from sb3_reinforce.lab.zoo.exp_manager import ZooUsageError
 
     parser = argparse.ArgumentParser(add_help=False)
     parser.add_argument("--env", type=str, default=None)
@@ -353,8 +353,8 @@ def _shipped_agents_flag(command: str, args: list[str]) -> list[str]:
     :param args: Its arguments
     :return: The arguments, with ``-f`` set to that folder (unchanged for another ``--algo`` or ``-f``)
     """
-    from sb3_reinforce.zoo.exp_manager import ALGO_NAME, ZooUsageError
-    from sb3_reinforce.zoo.trained_agents import TRAINED_AGENTS, agents_folder, shipped_envs, trained_agents_dirs
+    from sb3_reinforce.lab.zoo.exp_manager import ALGO_NAME, ZooUsageError
+    from sb3_reinforce.lab.zoo.trained_agents import TRAINED_AGENTS, agents_folder, shipped_envs, trained_agents_dirs
 
     parser = argparse.ArgumentParser(add_help=False)
     parser.add_argument("--algo", type=str, default=None)
@@ -378,7 +378,7 @@ def _shipped_agents_flag(command: str, args: list[str]) -> list[str]:
 
 def _fault_tolerance_flags(args: Sequence[str]) -> tuple["FaultTolerance", list[str]]:
     """Take this command's own flags (heartbeats and retries of database studies) out of the zoo's arguments."""
-    from sb3_reinforce.zoo.storage import FaultTolerance
+    from sb3_reinforce.lab.zoo.storage import FaultTolerance
 
     defaults = FaultTolerance()
     parser = argparse.ArgumentParser(add_help=False)
@@ -430,8 +430,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _run(command: str, args: list[str]) -> int:
     """Run one zoo command with REINFORCE registered; usage and config errors become one line and status 2."""
-    from sb3_reinforce.zoo.exp_manager import ReinforceExperimentManager, ZooUsageError
-    from sb3_reinforce.zoo.storage import StorageError
+    from sb3_reinforce.lab.zoo.exp_manager import ReinforceExperimentManager, ZooUsageError
+    from sb3_reinforce.lab.zoo.storage import StorageError
 
     register()
     fault_tolerance, envpool = ReinforceExperimentManager.fault_tolerance, ReinforceExperimentManager.envpool

@@ -3,7 +3,7 @@ The trained REINFORCE agents this package ships, in rl-trained-agents' layout, a
 
 The agents live in the repository's ``rl-trained-agents/`` folder (``reinforce/<env>_1/``: the model
 ``<env>.zip``, its ``<env>/config.yml``, ``args.yml`` and, where the zoo entry normalizes, ``vecnormalize.pkl``).
-A wheel ships them inside the package, as ``sb3_reinforce/zoo/trained_agents/`` (``pyproject.toml`` maps that
+A wheel ships them inside the package, as ``sb3_reinforce/lab/zoo/trained_agents/`` (``pyproject.toml`` maps that
 package folder to ``rl-trained-agents/``).
 
 rl_zoo3's ``enjoy``, ``record_video`` and ``record_training`` read ``-f rl-trained-agents`` by default. For
@@ -13,7 +13,7 @@ directory's ``rl-trained-agents/`` when it has one for the env (a clone's root),
 
 from pathlib import Path
 
-from sb3_reinforce.zoo.configs import shipped_dirs
+from sb3_reinforce.lab.zoo.configs import shipped_dirs
 
 __all__ = ["TRAINED_AGENTS", "agents_folder", "shipped_envs", "trained_agents_dirs"]
 
