@@ -14,7 +14,7 @@ __all__ = ["main", "missing_extra"]
 
 #: The top-level modules each optional extra installs (pyproject.toml's optional-dependencies).
 EXTRA_MODULES = {
-    "compare": ("rl_zoo3", "pandas", "matplotlib", "psutil", "tqdm", "yaml", "optuna"),
+    "compare": ("rl_zoo3", "pandas", "matplotlib", "psutil", "tqdm", "yaml", "optuna", "distributed", "dask"),
     "zoo": ("rl_zoo3", "requests", "pandas", "moviepy", "cv2", "optuna", "yaml"),
     "envpool": ("envpool",),
 }
@@ -62,9 +62,10 @@ def main(argv: list[str] | None = None) -> None:
 
             compare_main(rest)
     elif command == "seed":
-        from sb3_reinforce.seed_reproduction import main as seed_main
+        with missing_extra("sb3-reinforce seed", "compare"):
+            from sb3_reinforce.seed_reproduction import main as seed_main
 
-        seed_main(rest)
+            seed_main(rest)
     elif command == "report":
         with missing_extra("sb3-reinforce report", "compare"):
             from sb3_reinforce.compare.render import main as report_main

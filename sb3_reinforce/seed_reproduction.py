@@ -4,9 +4,10 @@ number of episodes, one training-episode return per row, x axis in episodes, as 
 
     python -m sb3_reinforce.seed_reproduction --env LunarLander-v3 --episodes 5000 --seeds 3 --out DIR
 
-Each seed runs in its own process and appends one row per finished training episode to
-``DIR/episodes.csv`` (flushed at once, so an interrupted run keeps every finished episode). A seed whose
-episodes are all in the file is skipped when the command is run again.
+Each seed runs in a worker process of a local Dask cluster on 127.0.0.1 (:mod:`sb3_reinforce.compare.cluster`,
+``--workers`` of them) and appends one row per finished training episode to ``DIR/episodes_seedN.csv``, sent
+back to ``DIR`` every few seconds (so an interrupted run keeps its finished episodes, but those of its last
+seconds). A seed whose episodes are all in the file is skipped when the command is run again.
 
 The environments are made as the seed's scripts made them where that is part of the experiment
 (:func:`~sb3_reinforce.lab.seed.envs.make_seed_env`: MountainCar without a time limit, CarRacing's 502-step
@@ -27,10 +28,12 @@ import argparse
 import csv
 import json
 import os
+import signal
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
@@ -44,6 +47,9 @@ from sb3_reinforce.lab.seed.envs import make_seed_env
 from sb3_reinforce.lab.seed.presets import seed_hyperparams
 from sb3_reinforce.reinforce import REINFORCE
 from sb3_reinforce.reinforce.buffers import RolloutLimitError
+
+if TYPE_CHECKING:
+    from sb3_reinforce.compare.cluster import RunChannel
 
 __all__ = ["EPISODE_COLUMNS", "RewardFloor", "build_parser", "main", "run_seed", "stopped_reason"]
 
@@ -79,8 +85,17 @@ class RewardFloor(gym.Wrapper):
 class _EpisodeRecorder(BaseCallback):
     """Append one CSV row per finished training episode, and stop after ``n_episodes`` episodes."""
 
-    def __init__(self, path: Path, env_id: str, seed: int, n_episodes: int, start_episode: int = 0) -> None:
+    def __init__(
+        self,
+        path: Path,
+        env_id: str,
+        seed: int,
+        n_episodes: int,
+        start_episode: int = 0,
+        on_episodes: Callable[[int], None] | None = None,
+    ) -> None:
         super().__init__()
+        self.on_episodes = on_episodes
         self.path = path
         self.env_id = env_id
         self.seed = seed
@@ -111,6 +126,8 @@ class _EpisodeRecorder(BaseCallback):
         if rows:
             with self.path.open("a", newline="") as f:
                 csv.writer(f).writerows(rows)
+            if self.on_episodes is not None:
+                self.on_episodes(self.num_timesteps)
         return self.episode < self.n_episodes
 
 
@@ -129,6 +146,7 @@ def run_seed(
     reward_floor: float | None,
     max_steps: int | None = None,
     max_episode_steps: int = 1_000_000,
+    on_episodes: Callable[[int], None] | None = None,
 ) -> None:
     """
     Train the seed's agent on ``env_id`` for ``n_episodes`` episodes and append its episodes to
@@ -143,6 +161,7 @@ def run_seed(
         (None: no cap; the episodes of the last batch are finished first)
     :param max_episode_steps: Stop when one episode reaches this many steps without ending (the model's
         ``max_rollout_steps``: the rollout buffer holds the whole episode)
+    :param on_episodes: Called with the training steps so far each time finished episodes were appended (or None)
     """
     th.set_num_threads(1)
     path = out_dir / f"episodes_seed{seed}.csv"
@@ -158,7 +177,7 @@ def run_seed(
         max_rollout_steps=max_episode_steps,
         **seed_hyperparams(env_id),
     )
-    recorder = _EpisodeRecorder(path, env_id, seed, n_episodes)
+    recorder = _EpisodeRecorder(path, env_id, seed, n_episodes, on_episodes=on_episodes)
     # Stopped by the recorder after n_episodes, or by the step cap.
     try:
         model.learn(total_timesteps=10**9 if max_steps is None else max_steps, callback=recorder)
@@ -206,6 +225,32 @@ def _finished(path: Path, n_episodes: int, max_steps: int | None = None, max_epi
     return len(episodes) > 0 and int(episodes.max()) >= n_episodes
 
 
+#: Seconds between two sendings of a seed's episodes back to the command.
+SEND_EVERY_S = 5.0
+
+
+def _run_seed_on_worker(
+    channel: "RunChannel",
+    env_id: str,
+    seed: int,
+    n_episodes: int,
+    reward_floor: float | None,
+    max_steps: int | None,
+    max_episode_steps: int,
+) -> None:
+    """On a Dask worker: :func:`run_seed` in the seed's folder there, its episodes sent back every few seconds."""
+    next_send = time.monotonic() + SEND_EVERY_S
+
+    def on_episodes(steps: int) -> None:
+        nonlocal next_send
+        channel.check_stop()
+        if time.monotonic() >= next_send:
+            channel.send(steps)
+            next_send = time.monotonic() + SEND_EVERY_S
+
+    run_seed(env_id, seed, n_episodes, channel.folder, reward_floor, max_steps, max_episode_steps, on_episodes)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``seed`` command's argument parser."""
     parser = argparse.ArgumentParser(
@@ -244,6 +289,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> None:
     """Command line entry point (see the module docstring)."""
+    # The compare extra's modules (Dask runs the seeds), imported before anything is written
+    from sb3_reinforce.compare.cluster import Job, JobResult, open_client, run_jobs
+    from sb3_reinforce.compare.render import render_seed
+
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.seeds < 1 or args.episodes < 1:
@@ -264,24 +313,34 @@ def main(argv: list[str] | None = None) -> None:
         for s in range(args.seeds)
         if not _finished(args.out / f"episodes_seed{s}.csv", args.episodes, args.max_steps, args.max_episode_steps)
     ]
-    jobs = [(args.env, s, args.episodes, args.out, args.reward_floor, args.max_steps, args.max_episode_steps) for s in todo]
-    from sb3_reinforce.compare.cli import run_stoppable, sigterm_as_keyboard_interrupt, worker_pool
-    from sb3_reinforce.compare.render import render_seed
+    settings = (args.episodes, args.reward_floor, args.max_steps, args.max_episode_steps)
+    jobs = [Job(f"seed{s}", _run_seed_on_worker, (args.env, s, *settings), 1, f"episodes_seed{s}.*") for s in todo]
 
-    # The pool is terminated on the way out of the block (Ctrl-C or SIGTERM): no worker outlives this process.
-    # Ctrl-C and SIGTERM to the process group reach the workers too: only this process handles them (worker_pool).
+    def write(files: dict[str, bytes]) -> None:
+        for name, data in files.items():
+            (args.out / Path(name).name).write_bytes(data)
+
+    def on_result(name: str, result: JobResult) -> None:
+        (args.out / f"episodes_{name}.stopped").unlink(missing_ok=True)  # a seed that stopped early before
+        write(result.files)
+
+    # `kill PID` stops the command as Ctrl-C does: the seeds stop, the cluster is closed
+    previous = signal.signal(signal.SIGTERM, signal.default_int_handler)
     try:
-        with sigterm_as_keyboard_interrupt(), worker_pool(max(1, min(args.workers, len(jobs)))) as pool:
-            pool.starmap(run_stoppable, [(run_seed, *job) for job in jobs])
-            # Ended normally: the waiting workers leave on the pool's sentinels (see worker_pool)
-            pool.close()
-            pool.join()
+        with open_client(None, max(1, min(args.workers, len(jobs))), 1) as client:
+            failures = run_jobs(client, jobs, lambda name, steps, files: write(files), on_result)
     except KeyboardInterrupt:
         print(
             f"Interrupted: the finished episodes are kept in {args.out}; run the same command to finish "
             "(a seed that was not finished starts over)."
         )
         sys.exit(130)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    for name, reason in failures.items():
+        print(f"{name} failed: {reason}")
+    if failures:
+        sys.exit(1)
 
     print(render_seed(args.out))
     print(f"{len(todo)} seed(s) trained, {args.seeds - len(todo)} already done: {args.out}")

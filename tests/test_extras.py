@@ -10,18 +10,22 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 @pytest.mark.parametrize(
-    "argv, extra",
+    "argv, extra, missing",
     [
-        (["sb3_reinforce.cli", "compare", "--env", "CartPole-v1"], "compare"),
-        (["sb3_reinforce.cli", "report", "."], "compare"),
-        (["sb3_reinforce.lab.zoo", "benchmark", "--help"], "zoo"),
+        (["sb3_reinforce.cli", "compare", "--env", "CartPole-v1"], "compare", "pandas"),
+        (["sb3_reinforce.cli", "report", "."], "compare", "pandas"),
+        (["sb3_reinforce.lab.zoo", "benchmark", "--help"], "zoo", "pandas"),
+        # Dask's distributed runs the runs of compare and seed
+        (["sb3_reinforce.cli", "compare", "--env", "CartPole-v1"], "compare", "distributed"),
+        (["sb3_reinforce.cli", "seed", "--env", "CartPole-v1", "--out", "never_written"], "compare", "distributed"),
     ],
 )
-def test_a_missing_extra_is_named(argv: list[str], extra: str) -> None:
-    # pandas comes with both extras: without it, the command names the extra to install instead of a traceback
-    code = "import runpy, sys; sys.modules['pandas'] = None; "
+def test_a_missing_extra_is_named(argv: list[str], extra: str, missing: str) -> None:
+    # Without a module of the extra, the command names the extra to install instead of a traceback
+    code = f"import runpy, sys; sys.modules[{missing!r}] = None; "
     code += f"sys.argv = {argv!r}; runpy.run_module({argv[0]!r}, run_name='__main__')"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=120)
+    assert not (REPO / "never_written").exists(), "refused before anything is written"
     assert done.returncode == 2, done.stderr
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and f"pip install 'sb3-reinforce[{extra}]'" in lines[0], lines

@@ -6,45 +6,39 @@ same evaluation protocol. Every run is built by rl_zoo3's experiment manager fro
     sb3-reinforce compare --env CartPole-v1 --seeds 3
 
 Every argument is checked, and every algorithm's hyperparameters are loaded, before any training starts.
-Runs go in parallel processes (one per CPU core by default), each writing its own files under
-``OUT/per_run/``; finished runs are skipped when the command is run again, so a comparison can be resumed
-after an interruption or extended with more seeds or algorithms. ``OUT/results.csv``, ``OUT/summary.md``
-and ``OUT/learning_curve.png`` are rebuilt from all the finished runs at the end.
+Runs go on Dask (:mod:`sb3_reinforce.compare.cluster`): by default a local cluster of worker processes on
+127.0.0.1 (one per CPU core), or the cluster of ``--scheduler``; each run's files come back into
+``OUT/per_run/`` as it goes, wherever it ran. Finished runs are skipped when the command is run again, so a
+comparison can be resumed after an interruption or extended with more seeds or algorithms. ``OUT/results.csv``,
+``OUT/summary.md`` and ``OUT/learning_curve.png`` are rebuilt from all the finished runs at the end.
 """
 
 import argparse
-import contextlib
 import json
-import multiprocessing as mp
 import os
-import queue
 import signal
 import sys
-from collections.abc import Callable, Iterator
-from multiprocessing.managers import SyncManager
-from multiprocessing.pool import Pool
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 import gymnasium as gym
 import pandas as pd
 from tqdm import tqdm
 
-from sb3_reinforce.compare.experiment import DEFAULT_ALGOS, VEC_ENV_TYPES, check_vec_env, known_algos, read_entry
+from sb3_reinforce.compare.cluster import ClusterError, Job, JobResult, RunChannel, check_workers, open_client, run_jobs
+from sb3_reinforce.compare.experiment import (
+    DEFAULT_ALGOS,
+    VEC_ENV_TYPES,
+    check_vec_env,
+    known_algos,
+    read_entry,
+    run_cpus,
+)
 from sb3_reinforce.compare.report import PER_RUN_DIR, load_summaries, plot_learning_curves, summary_table, to_markdown
 from sb3_reinforce.compare.runner import Checkpoint, RunSpec, run
 from sb3_reinforce.lab.stats import solve_threshold
 
-__all__ = [
-    "build_parser",
-    "ignore_sigint",
-    "main",
-    "parse_specs",
-    "run_stoppable",
-    "sigterm_as_keyboard_interrupt",
-    "worker_pool",
-    "write_outputs",
-]
+__all__ = ["build_parser", "main", "parse_specs", "runs_to_do", "write_outputs"]
 
 #: Evaluations per run when --eval-freq is not given.
 DEFAULT_EVALS_PER_RUN = 20
@@ -89,7 +83,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--threshold", default=None, help="solve threshold (default: the env's known one, if any)")
     parser.add_argument(
-        "--workers", type=int, default=os.cpu_count() or 1, help="parallel runs, >= 1 (default: the CPU cores, %(default)s)"
+        "--workers",
+        type=int,
+        default=os.cpu_count() or 1,
+        help="parallel runs: the worker processes of the local cluster, >= 1; with --scheduler, the cluster's workers "
+        "decide (default: the CPU cores, %(default)s)",
     )
     parser.add_argument("--out", type=Path, default=None, help="output folder (default: runs/compare/<env>)")
     parser.add_argument(
@@ -107,6 +105,14 @@ def build_parser() -> argparse.ArgumentParser:
         "(envpool: the envpool extra, the Box2D and classic-control tasks; evaluation stays on Gymnasium's env); not "
         "part of a run's settings, so a run may resume with another (default: %(default)s)",
     )
+    parser.add_argument(
+        "--scheduler",
+        default=None,
+        help="run on the Dask cluster of this scheduler, tcp://HOST:PORT or tls://HOST:PORT (TLS files from Dask's "
+        "configuration, distributed.comm.tls); its workers lend CPUs with --resources CPU=N "
+        "(default: a local cluster on 127.0.0.1 of --workers processes, started and closed by the command)",
+    )
+    parser.add_argument("--dashboard", action="store_true", help="serve the local cluster's Dask dashboard on 127.0.0.1:8787")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     return parser
 
@@ -199,116 +205,99 @@ def runs_to_do(specs: list[RunSpec], out_dir: Path) -> list[RunSpec]:
     return todo
 
 
-@contextlib.contextmanager
-def sigterm_as_keyboard_interrupt() -> Iterator[None]:
+def _train(channel: RunChannel, spec: RunSpec, vec_env: str) -> dict[str, Any]:
+    """On a worker: train ``spec`` in the run's folder there, sending its files back after each evaluation."""
+    return run(spec, channel.folder, progress=channel.send, vec_env=vec_env, heartbeat=channel.check_stop)
+
+
+def _write_files(out_dir: Path, files: dict[str, bytes]) -> None:
     """
-    Within the block, SIGTERM (``kill PID``) raises ``KeyboardInterrupt`` in the main process, as Ctrl-C does, so
-    that a worker pool is terminated on the way out instead of being left running without its parent.
+    Write a run's files (relative paths) into ``out_dir``, each whole and then renamed into place. A JSON file (a
+    checkpoint's state, a run's summary) says the others are complete: an old one is removed first and the new one
+    written last, as :class:`~sb3_reinforce.compare.runner.Checkpoint` does, so that a command stopped in between
+    leaves no JSON beside files of another evaluation.
     """
-
-    def _raise(signum: int, frame: Any) -> None:
-        raise KeyboardInterrupt(f"signal {signum}")
-
-    previous = signal.signal(signal.SIGTERM, _raise)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
-
-
-def ignore_sigint() -> None:
-    """Ignore SIGINT in this process (a worker's initializer: its parent stops it)."""
-    # Ctrl-C reaches the whole process group: only the main process handles it (it stops the workers itself).
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for relative in files:
+        if Path(relative).is_absolute() or ".." in Path(relative).parts:
+            raise ValueError(f"a run sent back a file outside its folder: {relative!r}")
+        if relative.endswith(".json"):
+            (out_dir / relative).unlink(missing_ok=True)
+    for relative, data in sorted(files.items(), key=lambda item: item[0].endswith(".json")):
+        path = out_dir / relative
+        path.parent.mkdir(parents=True, exist_ok=True)
+        temporary = path.with_name(path.name + ".tmp")
+        temporary.write_bytes(data)
+        os.replace(temporary, path)
 
 
-def ignore_stop_signals() -> None:
-    """Ignore SIGINT and SIGTERM (the message manager's initializer: the main process shuts it down last)."""
-    # A SIGTERM sent to the whole process group (`kill -- -PGID`, a container or session being stopped) must not
-    # take the manager down before the main process has stopped the workers: the pool's cleanup still talks to it.
-    ignore_sigint()
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+def _run_files(out_dir: Path, spec: RunSpec) -> dict[str, bytes]:
+    """The files of an unfinished run in ``out_dir`` (its CSV and checkpoint), to resume it wherever it lands."""
+    runs_dir = out_dir / PER_RUN_DIR
+    return {
+        path.relative_to(out_dir).as_posix(): path.read_bytes()
+        for path in sorted(runs_dir.glob(f"{spec.name}.*"))
+        if ".tmp" not in path.name
+    }
 
 
-_T = TypeVar("_T")
-
-
-def _start_worker() -> None:
+def _run_all(todo: list[RunSpec], out_dir: Path, args: argparse.Namespace) -> dict[str, str]:
     """
-    A pool worker's initializer: ignore the stop signals while waiting (see :func:`worker_pool`), and allow the
-    worker to start processes of its own (``--vec-env subproc``'s environments).
+    Run ``todo`` on Dask (see :mod:`sb3_reinforce.compare.cluster`), writing each run's files into ``out_dir`` as
+    they come back.
+
+    :return: The runs that failed: name -> reason
     """
-    ignore_stop_signals()
-    # Pool marks its workers daemonic, and a daemonic process may not have children. Only the worker's own view of
-    # the flag is cleared: the main process still sees daemonic workers, so that on its way out it terminates them
-    # instead of waiting for their runs to end.
-    mp.current_process().daemon = False
+    n_envs = {(s.algo, s.config_path): 0 for s in todo}
+    for algo, config in n_envs:
+        config_path = None if config is None else Path(config)
+        n_envs[algo, config] = read_entry(algo, todo[0].env_id, config_path, args.vec_env).n_envs
+    jobs = [
+        Job(
+            spec.name,
+            _train,
+            (spec, args.vec_env),
+            run_cpus(n_envs[spec.algo, spec.config_path], args.vec_env),
+            f"{PER_RUN_DIR}/{spec.name}.*",
+            _run_files(out_dir, spec),
+        )
+        for spec in todo
+    ]
+    budgets = {spec.name: spec.budget for spec in todo}
+    done_steps: dict[str, int] = {}
+    most_cpus = max(job.cpus for job in jobs)
+    n_workers = max(1, min(args.workers, len(todo)))
+    dashboard = "127.0.0.1:8787" if args.dashboard else None
+    with (
+        open_client(args.scheduler, n_workers, most_cpus, dashboard) as client,
+        tqdm(total=sum(budgets.values()), unit="step", disable=args.no_progress, desc="compare") as bar,
+    ):
+        if args.scheduler is not None:
+            check_workers(client, most_cpus, args.scheduler, subprocesses=args.vec_env == "subproc")
+        if dashboard is not None:
+            bar.write(f"Dask dashboard: {client.dashboard_link}")
 
+        def advance(name: str, steps: int) -> None:
+            steps = min(steps, budgets[name])  # a run may end a little past its budget
+            bar.update(max(0, steps - done_steps.get(name, 0)))
+            done_steps[name] = max(steps, done_steps.get(name, 0))
 
-def worker_pool(processes: int, maxtasksperchild: int | None = None) -> Pool:
-    """
-    A pool of ``processes`` spawned workers that ignore SIGINT and SIGTERM while they wait for a task; run each task
-    through :func:`run_stoppable`.
+        def on_files(name: str, steps: int, files: dict[str, bytes]) -> None:
+            _write_files(out_dir, files)
+            advance(name, steps)
 
-    Ctrl-C, and SIGTERM sent to the whole process group (``kill -- -PGID``), reach every worker. A worker killed while
-    it waits for a task dies holding the task queue's lock, and ``Pool.terminate`` (on the way out of the pool's
-    ``with`` block) then waits for that lock forever; a waiting worker that ignores the signal leaves on the pool's
-    own signal instead. Only the main process handles the stop: it terminates the workers itself. A pool that ends
-    normally must be closed and joined inside its ``with`` block: ``Pool.terminate`` (the block's exit) holds the task
-    queue's lock, so a worker still starting (a replacement under ``maxtasksperchild``, or one that never got a task)
-    would wait for that lock forever, ignoring the pool's SIGTERM, and the pool would wait for it.
+        def on_result(name: str, result: JobResult) -> None:
+            summary_name = f"{PER_RUN_DIR}/{name}.json"
+            summary = dict(json.loads(result.files[summary_name]), worker=result.worker)
+            _write_files(out_dir, result.files | {summary_name: json.dumps(summary, indent=2).encode()})
+            for path in (out_dir / PER_RUN_DIR).glob(f"{name}.*"):  # its checkpoint, deleted at its end
+                if path.relative_to(out_dir).as_posix() not in result.files:
+                    path.unlink()
+            advance(name, budgets[name])
+            finished.add(name)
+            bar.set_postfix(finished=f"{len(finished)}/{len(todo)}")
 
-    A worker may start processes of its own (``--vec-env subproc``'s environments): when it is stopped, SB3's
-    ``SubprocVecEnv`` environment processes leave at their next wait for a command, which finds their pipe closed.
-
-    :param processes: Number of workers
-    :param maxtasksperchild: Tasks a worker runs before a fresh one replaces it (``None``: no limit)
-    :return: The pool, to use as a context manager
-    """
-    return mp.get_context("spawn").Pool(processes, initializer=_start_worker, maxtasksperchild=maxtasksperchild)
-
-
-def run_stoppable(fn: Callable[..., _T], *args: Any) -> _T:
-    """
-    Run ``fn(*args)`` in a worker of :func:`worker_pool` with SIGTERM at its default, so that ``Pool.terminate``
-    (SIGTERM) or a SIGTERM to the process group stops the task; the worker ignores SIGTERM again once it returns.
-    """
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    try:
-        return fn(*args)
-    finally:
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)
-
-
-def _worker(spec: RunSpec, out_dir: Path, messages: Any, vec_env: str) -> dict[str, Any]:
-    return run(spec, out_dir, progress=lambda steps: messages.put((spec.name, steps)), vec_env=vec_env)
-
-
-def _run_all(todo: list[RunSpec], out_dir: Path, workers: int, show_progress: bool, vec_env: str = "dummy") -> None:
-    manager = SyncManager(ctx=mp.get_context("spawn"))
-    manager.start(ignore_stop_signals)
-    n_workers = max(1, min(workers, len(todo)))
-    with manager, worker_pool(n_workers, maxtasksperchild=1) as pool:
-        messages = manager.Queue()
-        pending = [pool.apply_async(run_stoppable, (_worker, spec, out_dir, messages, vec_env)) for spec in todo]
-        done_steps: dict[str, int] = {}
-        with tqdm(total=sum(s.budget for s in todo), unit="step", disable=not show_progress, desc="compare") as bar:
-            while pending:
-                try:
-                    name, steps = messages.get(timeout=0.5)
-                    budget = next(s.budget for s in todo if s.name == name)
-                    steps = min(steps, budget)  # a run may end a little past its budget
-                    bar.update(max(0, steps - done_steps.get(name, 0)))
-                    done_steps[name] = max(steps, done_steps.get(name, 0))
-                except queue.Empty:
-                    pass
-                for result in [r for r in pending if r.ready()]:
-                    pending.remove(result)
-                    result.get()  # re-raises a run's error here
-                    bar.set_postfix(finished=f"{len(todo) - len(pending)}/{len(todo)}")
-        # Ended normally: the waiting workers leave on the pool's sentinels (see worker_pool)
-        pool.close()
-        pool.join()
+        finished: set[str] = set()
+        return run_jobs(client, jobs, on_files, on_result)
 
 
 def write_outputs(out_dir: Path, env_id: str, threshold: float | None) -> pd.DataFrame | None:
@@ -358,12 +347,19 @@ def main(argv: list[str] | None = None) -> None:
         spec = next(s for s in specs if s.algo == algo)
         print(f"  {algo}: {spec.budget:,} steps, evaluation every {spec.eval_freq:,} steps x {spec.n_eval_episodes} episodes")
     interrupted = False
+    failures: dict[str, str] = {}
+    # `kill PID` stops the command as Ctrl-C does: the runs stop, their checkpoints kept, the cluster closed
+    previous = signal.signal(signal.SIGTERM, signal.default_int_handler)
     try:
         if todo:
-            with sigterm_as_keyboard_interrupt():
-                _run_all(todo, out_dir, args.workers, show_progress=not args.no_progress, vec_env=args.vec_env)
+            failures = _run_all(todo, out_dir, args)
     except KeyboardInterrupt:
         interrupted = True
+    except ClusterError as error:
+        print(f"sb3-reinforce compare: error: {error}", file=sys.stderr)
+        sys.exit(2)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     if write_outputs(out_dir, args.env, threshold) is not None:
         # the terminal's table: summary.md's figures without the IQRs, to fit about 110 columns
         compact = summary_table(pd.read_csv(out_dir / "results.csv"), load_summaries(out_dir), threshold, compact=True)
@@ -372,6 +368,10 @@ def main(argv: list[str] | None = None) -> None:
     if interrupted:
         print(f"Interrupted: the finished runs are kept in {out_dir / PER_RUN_DIR}; run the same command to resume.")
         sys.exit(130)
+    for name, reason in failures.items():
+        print(f"Run {name} failed: {reason}; run the same command to try it again from its last checkpoint.")
+    if failures:
+        sys.exit(1)
 
 
 if __name__ == "__main__":

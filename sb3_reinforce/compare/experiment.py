@@ -34,6 +34,7 @@ __all__ = [
     "check_vec_env",
     "known_algos",
     "read_entry",
+    "run_cpus",
 ]
 
 #: The algorithms compared when ``--algos`` is not given.
@@ -60,6 +61,18 @@ def check_vec_env(vec_env: str, env_id: str) -> None:
         raise ValueError(f"vec_env must be one of {', '.join(VEC_ENV_TYPES)}, got {vec_env!r}")
     if vec_env == ENVPOOL:
         check_envpool_env(env_id)
+
+
+def run_cpus(n_envs: int, vec_env: str) -> int:
+    """
+    The CPUs a run keeps busy: one per training environment when each steps in its own process or EnvPool thread,
+    else one.
+
+    :param n_envs: The run's training environments
+    :param vec_env: How they are stepped, one of :data:`VEC_ENV_TYPES`
+    :return: The CPUs (the worker resource the run asks for)
+    """
+    return n_envs if vec_env in ("subproc", ENVPOOL) else 1
 
 
 def known_algos() -> list[str]:

@@ -29,6 +29,7 @@ import pickle
 import subprocess
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -108,6 +109,7 @@ class ComparisonEvalCallback(BaseCallback):
     :param checkpoint: Saves the run after each evaluation (or None: no checkpoints)
     :param resumed: The counters of the checkpoint this run resumes from (or None: a new run, evaluated
         before training)
+    :param heartbeat: Called at every step (or None); it may raise to stop the run (its last checkpoint kept)
     """
 
     def __init__(
@@ -118,8 +120,10 @@ class ComparisonEvalCallback(BaseCallback):
         progress: Any = None,
         checkpoint: "Checkpoint | None" = None,
         resumed: dict[str, Any] | None = None,
+        heartbeat: Callable[[], None] | None = None,
     ) -> None:
         super().__init__()
+        self.heartbeat = heartbeat
         self.spec = spec
         self.eval_env = eval_env
         self.csv_path = csv_path
@@ -163,6 +167,8 @@ class ComparisonEvalCallback(BaseCallback):
         )
 
     def _on_step(self) -> bool:
+        if self.heartbeat is not None:
+            self.heartbeat()
         self.n_episodes += sum(1 for info in self.locals["infos"] if "episode" in info)
         if self.num_timesteps >= self.next_eval:
             self._evaluate()
@@ -252,9 +258,19 @@ class Checkpoint:
     :param hyperparams: The run's zoo entry, as recorded in its summary (a checkpoint made with other values
         is not resumed)
     :param vec_env: The kind of vectorized training environment of this process (``"dummy"`` or ``"subproc"``)
+    :param cpu_at_start: :func:`process_tree_cpu_s` when the run started in this process (a worker process runs
+        one run after another: only the CPU seconds since count)
     """
 
-    def __init__(self, runs_dir: Path, spec: RunSpec, hyperparams: dict[str, str], vec_env: str = "dummy") -> None:
+    def __init__(
+        self,
+        runs_dir: Path,
+        spec: RunSpec,
+        hyperparams: dict[str, str],
+        vec_env: str = "dummy",
+        cpu_at_start: float = 0.0,
+    ) -> None:
+        self.cpu_at_start = cpu_at_start
         self.spec = spec
         self.hyperparams = hyperparams
         self.vec_envs = [vec_env]
@@ -286,8 +302,11 @@ class Checkpoint:
         _write_replacing(self.state_path, json.dumps(state, indent=2).encode())
 
     def cpu_time_s(self) -> float:
-        """CPU seconds of the run so far: this process's (environment processes included), plus those it resumes."""
-        return self.cpu_time_before + process_tree_cpu_s()
+        """
+        CPU seconds of the run so far: this process's since the run started in it (environment processes included),
+        plus those of the processes it resumes.
+        """
+        return self.cpu_time_before + process_tree_cpu_s() - self.cpu_at_start
 
     def exists(self) -> bool:
         """Whether a complete checkpoint (the model and, written last, the JSON) is there, of whichever settings."""
@@ -321,7 +340,7 @@ class Checkpoint:
         vecnormalize = restored.get_vec_normalize_env()
         if vecnormalize is not None:
             with self.vecnormalize_path.open("rb") as f:
-                statistics = pickle.load(f)  # written by this run's own process, see save()
+                statistics = pickle.load(f)  # written by this run (on a worker of its cluster), see save()
             vecnormalize.__dict__.update(statistics)
         self.cpu_time_before = float(state["cpu_time_s"])
         self.resumed_at_steps = [*state["resumed_at_steps"], int(restored.num_timesteps)]
@@ -357,8 +376,9 @@ def _keep_rows_before(csv_path: Path, eval_index: int) -> None:
 def code_version() -> dict[str, Any]:
     """
     What code a run used: the package version and, in a git checkout, the commit and whether the tracked files
-    differed from it. Taken when the run starts (each run is a fresh process, so commits made while a
-    comparison runs reach its later runs, and their JSON files say so).
+    differed from it. Taken when the run starts, in the worker that runs it (a worker imports the package once:
+    commits made while a comparison runs reach the runs of workers started after them, and their JSON files
+    say so).
 
     :return: ``{"sb3_reinforce": version, "git_commit": hash or None, "git_dirty": bool or None}``
     """
@@ -376,7 +396,13 @@ def code_version() -> dict[str, Any]:
     return {"sb3_reinforce": __version__, "git_commit": commit, "git_dirty": None if status is None else status != ""}
 
 
-def run(spec: RunSpec, out_dir: Path, progress: Any = None, vec_env: str = "dummy") -> dict[str, Any]:
+def run(
+    spec: RunSpec,
+    out_dir: Path,
+    progress: Any = None,
+    vec_env: str = "dummy",
+    heartbeat: Callable[[], None] | None = None,
+) -> dict[str, Any]:
     """
     Train and evaluate one run; write ``out_dir/per_run/<algo>_seed<seed>.csv`` (one row per evaluation,
     appended as it goes) and, once finished, ``<algo>_seed<seed>.json`` (the run's summary). A run with a
@@ -388,8 +414,11 @@ def run(spec: RunSpec, out_dir: Path, progress: Any = None, vec_env: str = "dumm
     :param progress: Called with the steps done so far after each evaluation (or None)
     :param vec_env: How the training environments are stepped: ``"dummy"`` (in this process) or ``"subproc"``
         (one process each); not part of the run's settings (a run may resume with the other)
+    :param heartbeat: Called at every training step (or None); it may raise to stop the run, whose last
+        checkpoint stays
     :return: The summary written to the JSON file
     """
+    cpu_at_start = process_tree_cpu_s()
     th.set_num_threads(1)
     version = code_version()
     runs_dir = out_dir / PER_RUN_DIR
@@ -402,7 +431,9 @@ def run(spec: RunSpec, out_dir: Path, progress: Any = None, vec_env: str = "dumm
         model, eval_env = built.model, built.eval_env
         hyperparams = {key: str(value) for key, value in built.entry.hyperparams.items()}
         # Off-policy runs are not checkpointed: model.save leaves their replay buffer out
-        checkpoint = None if isinstance(model, OffPolicyAlgorithm) else Checkpoint(runs_dir, spec, hyperparams, vec_env)
+        checkpoint = (
+            None if isinstance(model, OffPolicyAlgorithm) else Checkpoint(runs_dir, spec, hyperparams, vec_env, cpu_at_start)
+        )
         state = checkpoint.load_state() if checkpoint is not None and csv_path.exists() else None
         resumed = None
         if checkpoint is not None and state is not None:
@@ -412,7 +443,7 @@ def run(spec: RunSpec, out_dir: Path, progress: Any = None, vec_env: str = "dumm
         else:
             with csv_path.open("w", newline="") as f:
                 csv.writer(f).writerow(RESULT_COLUMNS)
-        callback = ComparisonEvalCallback(spec, eval_env, csv_path, progress, checkpoint, resumed)
+        callback = ComparisonEvalCallback(spec, eval_env, csv_path, progress, checkpoint, resumed, heartbeat)
         # Resumed: the steps left, on the restored step count (the schedules go on from where they were)
         model.learn(
             total_timesteps=spec.budget - model.num_timesteps,
@@ -433,9 +464,9 @@ def run(spec: RunSpec, out_dir: Path, progress: Any = None, vec_env: str = "dumm
         train_time_s=round(train_time, 3),
         steps_per_s=round(model.num_timesteps / train_time, 1),
         peak_rss_mb=round(callback.peak_rss_mb, 1),
-        # CPU seconds of this process (imports, training and evaluations) and its environment processes, plus those
-        # of the processes it resumes: what the run costs on idle cores
-        cpu_time_s=round(process_tree_cpu_s() if checkpoint is None else checkpoint.cpu_time_s(), 1),
+        # CPU seconds of this process since the run started (building, training and evaluations) and of its
+        # environment processes, plus those of the processes it resumes: what the run costs on idle cores
+        cpu_time_s=round(process_tree_cpu_s() - cpu_at_start if checkpoint is None else checkpoint.cpu_time_s(), 1),
         vec_envs=[vec_env] if checkpoint is None else checkpoint.vec_envs,
     )
     if checkpoint is not None and checkpoint.resumed_at_steps:

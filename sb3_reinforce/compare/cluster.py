@@ -1,0 +1,362 @@
+"""
+Runs on Dask ``distributed``, for ``sb3-reinforce compare`` and ``sb3-reinforce seed``: on a ``LocalCluster`` the
+command starts itself on 127.0.0.1 (the default, one worker process per ``--workers``), or on a cluster already
+running (``--scheduler tcp://HOST:PORT`` or ``tls://HOST:PORT``: ``dask scheduler`` on one machine, ``dask worker``
+on the others).
+
+No filesystem is shared: each run works in a folder of its worker's own local directory, and its files come back
+through the scheduler as it goes (:meth:`RunChannel.send`, after each evaluation) and when it ends; the command
+writes them into its output folder. A run that starts again (after a worker died, or in a command run again) gets
+the files last sent back (its checkpoint) before it starts, on whatever worker it lands.
+
+A run asks for the CPUs it keeps busy through the worker resource ``CPU``: a worker runs it only if it declares at
+least as many (``dask worker --resources CPU=N``; the local default gives each worker what the largest run needs,
+so that ``--workers`` alone says how many runs go at once, as it always did).
+
+A worker that dies mid-run (killed, its machine lost) has its run started again on a worker still there, by the
+scheduler, up to its ``distributed.scheduler.allowed-failures`` times; a run whose code raises is retried
+:data:`RUN_RETRIES` times. Stopping the command (Ctrl-C, SIGTERM) sets a :class:`~distributed.Event` that every
+running run checks about once a second: it stops at once, its last checkpoint kept.
+"""
+
+import contextlib
+import logging
+import multiprocessing
+import shutil
+import signal
+import time
+import uuid
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import dask
+from distributed import Client, Event, LocalCluster, Queue, Variable, Worker, WorkerPlugin, get_worker, wait
+
+__all__ = [
+    "CONNECT_TIMEOUT_S",
+    "RUN_RETRIES",
+    "ClusterError",
+    "Job",
+    "RunChannel",
+    "RunStopped",
+    "open_client",
+    "run_jobs",
+    "worker_versions",
+]
+
+#: Seconds to reach ``--scheduler`` before giving up.
+CONNECT_TIMEOUT_S = 10
+#: Retries of a run whose code raised an error (a worker that died is the scheduler's ``allowed-failures``).
+RUN_RETRIES = 2
+#: Seconds between two looks of a running run at the stop flag.
+STOP_CHECK_S = 1.0
+#: The packages a worker must have in the versions the command has (a run built with others would not be the same).
+CHECKED_PACKAGES = ("sb3_reinforce", "stable_baselines3", "rl_zoo3", "gymnasium")
+#: A worker's resource: the CPUs it lends to runs (``dask worker --resources CPU=N``).
+CPU_RESOURCE = "CPU"
+
+
+class ClusterError(Exception):
+    """The cluster cannot run the comparison (unreachable, TLS refused, a worker unfit): a one-line message."""
+
+
+class RunStopped(Exception):
+    """Raised in a running run when the command was stopped."""
+
+
+class IgnoreInterrupt(WorkerPlugin):
+    """
+    A local worker process ignores SIGINT: Ctrl-C reaches the whole process group, and only the command handles it
+    (it stops the runs, then closes the cluster, which stops its workers).
+    """
+
+    def setup(self, worker: Worker) -> None:
+        """
+        Ignore SIGINT in the worker process (the plugin is set up in its main thread, which runs its event loop).
+
+        :param worker: The worker
+        """
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@contextlib.contextmanager
+def open_client(scheduler: str | None, n_workers: int, worker_cpus: int, dashboard: str | None = None) -> Iterator[Client]:
+    """
+    A client of the cluster that runs the jobs: a ``LocalCluster`` on 127.0.0.1 started here (and closed on the way
+    out), or the cluster at ``scheduler``.
+
+    :param scheduler: The scheduler's address (``tcp://HOST:PORT``, ``tls://HOST:PORT``; TLS files come from Dask's
+        configuration, ``distributed.comm.tls``), or None for a local cluster
+    :param n_workers: The local cluster's worker processes (one run each at a time)
+    :param worker_cpus: The ``CPU`` resource of each local worker
+    :param dashboard: The local cluster's dashboard address (None: no dashboard)
+    :return: The client
+    :raises ClusterError: if ``scheduler`` cannot be reached
+    """
+    if scheduler is None:
+        with (
+            # A worker process may start processes of its own (--vec-env subproc's environments)
+            dask.config.set({"distributed.worker.daemon": False}),
+            LocalCluster(
+                host="127.0.0.1",
+                n_workers=n_workers,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=dashboard,
+                resources={CPU_RESOURCE: worker_cpus},
+                silence_logs=logging.ERROR,
+            ) as cluster,
+            Client(cluster, set_as_default=True) as client,
+        ):
+            client.register_plugin(IgnoreInterrupt())
+            yield client
+        return
+    try:
+        client = Client(scheduler, timeout=CONNECT_TIMEOUT_S, set_as_default=True)
+    except (OSError, TypeError, ValueError) as error:  # refused, timed out, no TLS settings for tls://
+        reason = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        raise ClusterError(f"cannot connect to the scheduler at {scheduler}: {reason}") from None
+    with client:
+        yield client
+
+
+def worker_versions() -> dict[str, str | None]:
+    """
+    On a worker: the versions of :data:`CHECKED_PACKAGES` it imports (None: not installed), and whether its
+    process is daemonic (``"daemonic"``: ``"yes"`` or ``"no"``; a daemonic process cannot start the environment
+    processes of ``--vec-env subproc``).
+
+    :return: Package -> version
+    """
+    import importlib
+
+    versions: dict[str, str | None] = {"daemonic": "yes" if multiprocessing.current_process().daemon else "no"}
+    for package in CHECKED_PACKAGES:
+        try:
+            versions[package] = str(importlib.import_module(package).__version__)
+        except ImportError:
+            versions[package] = None
+    return versions
+
+
+def check_workers(client: Client, cpus: int, scheduler: str, subprocesses: bool = False) -> None:
+    """
+    Refuse a cluster without a worker, with a worker whose packages differ from this process's, or where no worker
+    lends ``cpus`` CPUs.
+
+    :param client: The cluster's client
+    :param cpus: The CPUs the largest run asks for
+    :param scheduler: The scheduler's address, for the messages
+    :param subprocesses: Whether the runs start processes of their own (then a worker must not be daemonic)
+    :raises ClusterError: naming the worker and what differs
+    """
+    workers = client.scheduler_info(n_workers=-1)["workers"]
+    if not workers:
+        raise ClusterError(f"the scheduler at {scheduler} has no worker: start one with `dask worker {scheduler}`")
+    ours = worker_versions()
+    # A worker without the package cannot unpickle worker_versions (it is found by name): that error is its answer
+    answers = client.run(worker_versions, on_error="return")
+    for address, answer in sorted(answers.items()):
+        name = f"{workers.get(address, {}).get('name', address)} ({address}) of {scheduler}"
+        if isinstance(answer, BaseException):
+            raise ClusterError(f"worker {name} cannot run sb3-reinforce: {type(answer).__name__}: {answer}")
+        differ = [f"{pkg} {answer.get(pkg)} (here {version})" for pkg, version in ours.items() if answer.get(pkg) != version]
+        differ = [text for text in differ if not text.startswith("daemonic")]
+        if differ:
+            raise ClusterError(f"worker {name} has other versions: {', '.join(differ)}")
+        if subprocesses and answer["daemonic"] == "yes":
+            raise ClusterError(
+                f"worker {name} is a daemonic process and cannot start --vec-env subproc's environment "
+                "processes: start it with DASK_DISTRIBUTED__WORKER__DAEMON=False"
+            )
+    most = max(float(info.get("resources", {}).get(CPU_RESOURCE, 0)) for info in workers.values())
+    if most < cpus:
+        raise ClusterError(
+            f"no worker of {scheduler} lends {cpus} CPU(s) (the most: {most:g}): start workers with "
+            f"`dask worker {scheduler} --nthreads 1 --resources {CPU_RESOURCE}={cpus}` or more"
+        )
+
+
+class RunChannel:
+    """
+    A run's side of the way back to the command, on its worker: the run's folder, its files sent back, the stop flag.
+
+    :param token: The command's token (names its queue, variables and stop flag on the scheduler)
+    :param name: The run's name
+    :param pattern: The glob of the run's files in its folder (relative to it)
+    """
+
+    def __init__(self, token: str, name: str, pattern: str) -> None:
+        self.name = name
+        self.pattern = pattern
+        self.folder = Path(get_worker().local_directory) / f"sb3-reinforce-{token}" / name
+        self._files = Variable(_variable_name(token, name))
+        self._messages = Queue(_queue_name(token))
+        self._stop = Event(_stop_name(token))
+        self._next_check = 0.0
+
+    def restore(self) -> None:
+        """Write the files last sent back (a checkpoint to resume from) into a fresh folder."""
+        shutil.rmtree(self.folder, ignore_errors=True)  # what a run that died here left
+        self.folder.mkdir(parents=True)
+        for relative, data in self._files.get(timeout=60).items():
+            path = self.folder / relative
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_bytes(data)
+
+    def files(self) -> dict[str, bytes]:
+        """The run's files in its folder, by path relative to it (those being written, ``*.tmp``, left out)."""
+        return {
+            path.relative_to(self.folder).as_posix(): path.read_bytes()
+            for path in sorted(self.folder.glob(self.pattern))
+            if ".tmp" not in path.name
+        }
+
+    def send(self, steps: int) -> None:
+        """
+        Send the run's files back to the command, and keep them for a restart of the run.
+
+        :param steps: The environment steps done so far (the command's progress bar)
+        """
+        files = self.files()
+        self._files.set(files)
+        self._messages.put([self.name, steps, files])
+
+    def check_stop(self) -> None:
+        """Raise :class:`RunStopped` if the command was stopped (looked up once per :data:`STOP_CHECK_S`)."""
+        now = time.monotonic()
+        if now < self._next_check:
+            return
+        self._next_check = now + STOP_CHECK_S
+        if self._stop.is_set():
+            raise RunStopped(self.name)
+
+
+def _variable_name(token: str, name: str) -> str:
+    return f"sb3-reinforce-{token}-files-{name}"
+
+
+def _queue_name(token: str) -> str:
+    return f"sb3-reinforce-{token}-messages"
+
+
+def _stop_name(token: str) -> str:
+    return f"sb3-reinforce-{token}-stop"
+
+
+@dataclass
+class Job:
+    """
+    One run to submit.
+
+    :param name: Its name (unique in the command)
+    :param fn: Called on a worker as ``fn(channel, *args)``, in the run's folder ``channel.folder``; returns what
+        the command gets back with the run's files
+    :param args: The arguments after the channel
+    :param cpus: The CPUs it keeps busy (the ``CPU`` resource it asks for)
+    :param pattern: The glob of the run's files in its folder (sent back, and sent to a run that starts again)
+    :param files: The files it starts with (a checkpoint to resume from), by name
+    """
+
+    name: str
+    fn: Callable[..., Any]
+    args: tuple[Any, ...]
+    cpus: int
+    pattern: str
+    files: dict[str, bytes] = field(default_factory=dict)
+
+
+@dataclass
+class JobResult:
+    """
+    A finished run, as the command gets it back.
+
+    :param value: What the job's function returned
+    :param files: The run's files at its end
+    :param worker: The name of the worker it ended on
+    """
+
+    value: Any
+    files: dict[str, bytes]
+    worker: str
+
+
+def _execute(job: Job, token: str) -> JobResult | None:
+    """On a worker: run ``job`` in its folder (its files restored first); None if the command was stopped."""
+    channel = RunChannel(token, job.name, job.pattern)
+    channel.restore()
+    try:
+        value = job.fn(channel, *job.args)
+    except RunStopped:
+        return None
+    result = JobResult(value, channel.files(), str(get_worker().name))
+    shutil.rmtree(channel.folder)
+    return result
+
+
+def run_jobs(
+    client: Client,
+    jobs: Sequence[Job],
+    on_files: Callable[[str, int, dict[str, bytes]], None],
+    on_result: Callable[[str, JobResult], None],
+) -> dict[str, str]:
+    """
+    Run ``jobs`` on the cluster and hand their files to the command as they come.
+
+    :param client: The cluster's client
+    :param jobs: The runs
+    :param on_files: Called with a run's name, steps and files each time a running run sends them
+    :param on_result: Called once per finished run
+    :return: The runs that failed (a worker died too often, or their code raised): name -> one-line reason
+    :raises KeyboardInterrupt: if the command is stopped; the runs are stopped first (their last files kept)
+    """
+    token = uuid.uuid4().hex[:12]
+    variables = [Variable(_variable_name(token, job.name), client=client) for job in jobs]
+    for variable, job in zip(variables, jobs, strict=True):
+        variable.set(job.files)
+    messages = Queue(_queue_name(token), client=client)
+    stop = Event(_stop_name(token), client=client)
+    futures = {
+        client.submit(
+            _execute,
+            job,
+            token,
+            key=f"{job.name}-{token}",
+            resources={CPU_RESOURCE: job.cpus},
+            retries=RUN_RETRIES,
+            pure=False,
+        ): job.name
+        for job in jobs
+    }
+    failures: dict[str, str] = {}
+    finished: set[str] = set()
+    pending = set(futures)
+    try:
+        while pending:
+            with contextlib.suppress(TimeoutError):
+                wait(list(pending), timeout=0.5, return_when="FIRST_COMPLETED")
+            for name, steps, files in messages.get(batch=True):
+                if name not in finished:  # a finished run's files are its result's
+                    on_files(name, int(steps), files)
+            for future in [f for f in pending if f.done()]:
+                pending.remove(future)
+                name = futures[future]
+                finished.add(name)
+                if future.status == "error":
+                    error = future.exception()
+                    failures[name] = f"{type(error).__name__}: {str(error).strip().splitlines()[0] if str(error) else ''}"
+                elif (result := future.result()) is not None:  # None: stopped (by another command of this token)
+                    on_result(name, result)
+    except BaseException:
+        stop.set()  # running runs stop within STOP_CHECK_S, their last files already sent
+        with contextlib.suppress(Exception):
+            wait(list(pending), timeout=5 * STOP_CHECK_S + 5)
+        client.cancel(list(pending))
+        raise
+    finally:
+        for variable in variables:
+            variable.delete()
+        messages.close()
+    return failures

@@ -1,0 +1,273 @@
+"""
+``sb3-reinforce compare --scheduler``: a comparison on a Dask cluster started by the test (``dask scheduler`` and two
+``dask worker`` processes, each in a folder of its own, on 127.0.0.1 only), no filesystem shared with the command:
+each run's files come back into ``--out`` through the scheduler.
+"""
+
+import contextlib
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+import psutil
+import pytest
+from distributed import Client
+
+from sb3_reinforce.compare.report import PER_RUN_DIR
+from sb3_reinforce.compare.runner import RESULT_COLUMNS
+
+REPO = Path(__file__).resolve().parents[1]
+DASK = str(Path(sys.executable).parent / "dask")
+#: A tiny comparison: CartPole, a few thousand steps, evaluated every 1,000
+TINY = ["--env", "CartPole-v1", "--eval-episodes", "2", "--no-progress"]
+#: Their HTTP servers (health, metrics) listen on every interface unless told otherwise, dashboard or not
+LOCAL_HTTP = ["--no-dashboard", "--dashboard-address", "127.0.0.1:0"]
+
+
+@dataclass
+class Cluster:
+    """A scheduler and its workers, started by a test: each a process group of its own."""
+
+    address: str
+    scheduler: subprocess.Popen
+    workers: dict[str, subprocess.Popen]
+    tls_args: list[str]
+
+
+def _environment() -> dict[str, str]:
+    # The workers import this checkout's package, as the command does
+    return dict(os.environ, PYTHONPATH=str(REPO), OMP_NUM_THREADS="1")
+
+
+def _stop(process: subprocess.Popen) -> None:
+    with contextlib.suppress(ProcessLookupError):
+        os.killpg(process.pid, signal.SIGKILL)
+    process.wait(timeout=30)
+
+
+@contextlib.contextmanager
+def dask_cluster(folder: Path, tls_args: list[str] | None = None) -> Iterator[Cluster]:
+    """``dask scheduler`` on 127.0.0.1 and two ``dask worker`` processes (w1, w2), each in its own folder."""
+    tls_args = tls_args or []
+    scheduler_file = folder / "scheduler.json"
+    (folder / "scheduler").mkdir()
+    protocol = ["--protocol", "tls"] if tls_args else []
+    command = [DASK, "scheduler", "--host", "127.0.0.1", "--port", "0", *LOCAL_HTTP, *protocol, *tls_args]
+    scheduler = subprocess.Popen(
+        [*command, "--scheduler-file", str(scheduler_file)],
+        cwd=folder / "scheduler",
+        env=_environment(),
+        start_new_session=True,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    workers: dict[str, subprocess.Popen] = {}
+    try:
+        deadline = time.monotonic() + 60
+        while not scheduler_file.exists():
+            assert time.monotonic() < deadline and scheduler.poll() is None, "the scheduler did not start"
+            time.sleep(0.2)
+        time.sleep(0.5)  # written whole
+        address = json.loads(scheduler_file.read_text())["address"]
+        assert address.split("://")[1].startswith("127.0.0.1:"), address
+        for name in ("w1", "w2"):
+            (folder / name).mkdir()
+            command = [DASK, "worker", address, "--host", "127.0.0.1", "--nworkers", "1", "--nthreads", "1"]
+            command += ["--name", name, "--resources", "CPU=1", *LOCAL_HTTP, "--local-directory", str(folder / name)]
+            workers[name] = subprocess.Popen(
+                [*command, *tls_args],
+                cwd=folder / name,
+                env=_environment(),
+                start_new_session=True,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+            )
+        yield Cluster(address, scheduler, workers, tls_args)
+    finally:
+        for process in [*workers.values(), scheduler]:
+            _stop(process)
+
+
+def _wait_for_workers(cluster: Cluster, security: object = None) -> None:
+    with Client(cluster.address, security=security, timeout=30, set_as_default=False) as client:
+        client.wait_for_workers(2, timeout=120)
+
+
+def _compare(
+    out: Path, scheduler: str, *args: str, env: dict[str, str] | None = None, stderr: int = subprocess.STDOUT
+) -> subprocess.Popen:
+    command = [sys.executable, "-m", "sb3_reinforce.compare", *TINY, "--out", str(out), "--scheduler", scheduler, *args]
+    return subprocess.Popen(
+        command, cwd=out.parent, env=env or _environment(), stdout=subprocess.PIPE, stderr=stderr, text=True
+    )
+
+
+def _refused(out: Path, scheduler: str) -> str:
+    """Run a compare that must be refused: exit 2 and one line on stderr naming the scheduler; return that line."""
+    compare = _compare(out, scheduler, "--algos", "reinforce", "--seeds", "1", "--budget", "2000", stderr=subprocess.PIPE)
+    _, errors = compare.communicate(timeout=180)  # a hang guard only: a loaded CI machine imports slowly
+    assert compare.returncode == 2, errors
+    lines = errors.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("sb3-reinforce compare: error: ") and scheduler in lines[0], errors
+    assert not list((out / PER_RUN_DIR).glob("*.csv")), "nothing trained"
+    return lines[0]
+
+
+def _check_every_row(out: Path, names: list[str]) -> list[dict]:
+    summaries = [json.loads((out / PER_RUN_DIR / f"{name}.json").read_text()) for name in names]
+    results = pd.read_csv(out / "results.csv")
+    assert list(results.columns) == RESULT_COLUMNS
+    for name in names:
+        algo, seed = name.split("_seed")
+        run = results[(results["algo"] == algo) & (results["seed"] == int(seed))]
+        assert list(run["eval_index"]) == list(range(len(run))) and run["steps"].iloc[-1] >= run["steps"].max()
+    assert not list((out / PER_RUN_DIR).glob("*.checkpoint*")), "a finished run leaves no checkpoint"
+    return summaries
+
+
+def assert_localhost_only(pids: list[int]) -> None:
+    """Every socket of these processes and of those below them listens and connects on 127.0.0.1 only."""
+    for pid in pids:
+        with contextlib.suppress(psutil.NoSuchProcess):
+            for process in [psutil.Process(pid), *psutil.Process(pid).children(recursive=True)]:
+                for connection in process.net_connections(kind="inet"):
+                    assert connection.laddr.ip == "127.0.0.1", connection
+                    assert not connection.raddr or connection.raddr.ip == "127.0.0.1", connection
+
+
+def test_compare_on_a_cluster_uses_both_workers(tmp_path: Path) -> None:
+    with dask_cluster(tmp_path) as cluster:
+        _wait_for_workers(cluster)
+        out = tmp_path / "out"
+        compare = _compare(out, cluster.address, "--algos", "reinforce,ppo", "--seeds", "2", "--budget", "2000")
+        assert_localhost_only([cluster.scheduler.pid, *(w.pid for w in cluster.workers.values())])
+        output, _ = compare.communicate(timeout=600)
+        assert compare.returncode == 0, output
+    names = ["reinforce_seed0", "ppo_seed0", "reinforce_seed1", "ppo_seed1"]
+    summaries = _check_every_row(out, names)
+    # Each run's JSON names its worker: both ran at least one, in folders of their own (none is --out)
+    assert {summary["worker"] for summary in summaries} == {"w1", "w2"}
+    assert (out / "summary.md").exists() and (out / "learning_curve.png").exists()
+
+
+def _worker_process(nanny: subprocess.Popen) -> psutil.Process:
+    """The worker process a ``dask worker`` (its nanny) started."""
+    deadline = time.monotonic() + 60
+    while True:
+        children = psutil.Process(nanny.pid).children()
+        workers = [p for p in children if "spawn_main" in " ".join(p.cmdline()) or "dask" in p.name()]
+        if workers:
+            return workers[0]
+        assert time.monotonic() < deadline, "no worker process"
+        time.sleep(0.2)
+
+
+def test_killed_worker_resumes_its_run_and_a_lost_one_hands_its_runs_over(tmp_path: Path) -> None:
+    with dask_cluster(tmp_path) as cluster:
+        _wait_for_workers(cluster)
+        out = tmp_path / "out"
+        args = ["--algos", "reinforce", "--seeds", "2", "--budget", "30000", "--eval-freq", "2000"]
+        compare = _compare(out, cluster.address, *args)
+        try:
+            # Both runs are training (one per worker) and have sent a checkpoint back to --out
+            deadline = time.monotonic() + 300
+            while len(list((out / PER_RUN_DIR).glob("*.checkpoint.json"))) < 2:
+                assert compare.poll() is None, compare.stdout.read() if compare.stdout else ""
+                assert time.monotonic() < deadline, "no checkpoints after 300 s"
+                time.sleep(0.2)
+            # w1's worker process killed mid-run (its nanny starts another); w2 lost for good, nanny and all
+            _worker_process(cluster.workers["w1"]).kill()
+            _stop(cluster.workers["w2"])
+            output, _ = compare.communicate(timeout=600)
+        finally:
+            compare.kill()
+        assert compare.returncode == 0, output
+    summaries = _check_every_row(out, ["reinforce_seed0", "reinforce_seed1"])
+    # Both runs went on from a checkpoint, and both finished on w1, the worker left
+    assert all(summary["resumed_at_steps"][0] > 0 for summary in summaries), summaries
+    assert {summary["worker"] for summary in summaries} == {"w1"}
+
+
+SAN = ["-addext", "subjectAltName=IP:127.0.0.1"]
+
+
+def _self_signed_certificate(folder: Path) -> tuple[Path, Path]:
+    """A certificate for 127.0.0.1 and its key, made here with the openssl command."""
+    cert, key = folder / "cert.pem", folder / "key.pem"
+    command = ["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "1", "-subj", "/CN=127.0.0.1", *SAN]
+    subprocess.run(
+        [*command, "-keyout", str(key), "-out", str(cert)],
+        check=True,
+        capture_output=True,
+    )
+    return cert, key
+
+
+def test_compare_over_tls_and_a_client_without_the_certificate(tmp_path: Path) -> None:
+    from distributed.security import Security
+
+    cert, key = _self_signed_certificate(tmp_path)
+    tls_args = ["--tls-ca-file", str(cert), "--tls-cert", str(cert), "--tls-key", str(key)]
+    with dask_cluster(tmp_path, tls_args) as cluster:
+        assert cluster.address.startswith("tls://127.0.0.1:"), cluster.address
+        security = Security(tls_ca_file=str(cert), tls_client_cert=str(cert), tls_client_key=str(key), require_encryption=True)
+        _wait_for_workers(cluster, security)
+        # The command reads its TLS files from Dask's configuration (here its environment variables)
+        env = _environment()
+        env.update(
+            DASK_DISTRIBUTED__COMM__TLS__CA_FILE=str(cert),
+            DASK_DISTRIBUTED__COMM__TLS__CLIENT__CERT=str(cert),
+            DASK_DISTRIBUTED__COMM__TLS__CLIENT__KEY=str(key),
+        )
+        out = tmp_path / "out"
+        compare = _compare(out, cluster.address, "--algos", "reinforce", "--seeds", "2", "--budget", "2000", env=env)
+        output, _ = compare.communicate(timeout=600)
+        assert compare.returncode == 0, output
+        _check_every_row(out, ["reinforce_seed0", "reinforce_seed1"])
+        # Without the certificate: one line naming the address, exit 2, before any training
+        _refused(tmp_path / "other", cluster.address)
+
+
+def _free_port() -> int:
+    with socket.socket() as listening:
+        listening.bind(("127.0.0.1", 0))
+        return int(listening.getsockname()[1])
+
+
+@pytest.mark.parametrize("protocol", ["tcp", "tls"])
+def test_unreachable_scheduler_is_one_line(tmp_path: Path, protocol: str) -> None:
+    _refused(tmp_path / "out", f"{protocol}://127.0.0.1:{_free_port()}")  # nothing listens there
+
+
+def test_a_worker_with_another_package_is_named(tmp_path: Path) -> None:
+    # A third worker imports another sb3_reinforce (an old release without the cluster module): the command names it
+    other = tmp_path / "other_release"
+    (other / "sb3_reinforce").mkdir(parents=True)
+    (other / "sb3_reinforce" / "__init__.py").write_text('__version__ = "0.0.1"\n')
+    with dask_cluster(tmp_path) as cluster:
+        (tmp_path / "w3").mkdir()
+        command = [DASK, "worker", cluster.address, "--host", "127.0.0.1", "--nworkers", "1", "--nthreads", "1"]
+        command += ["--name", "w3-other-release", *LOCAL_HTTP, "--local-directory", str(tmp_path / "w3")]
+        third = subprocess.Popen(
+            command,
+            cwd=tmp_path / "w3",
+            env=dict(_environment(), PYTHONPATH=str(other)),
+            start_new_session=True,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+        try:
+            with Client(cluster.address, timeout=30, set_as_default=False) as client:
+                client.wait_for_workers(3, timeout=120)
+            line = _refused(tmp_path / "out", cluster.address)
+        finally:
+            _stop(third)
+    assert "worker w3-other-release" in line and "ModuleNotFoundError" in line, line
