@@ -24,7 +24,7 @@ import psutil
 
 REPO = Path(__file__).resolve().parents[1]
 #: The README's main job (its --out and --no-progress added)
-MAIN_JOB = ["-m", "sb3_reinforce.compare", "--env", "CartPole-v1", "--seeds", "3", "--no-progress"]
+MAIN_JOB = ["-m", "sb3_reinforce.lab.compare", "--env", "CartPole-v1", "--seeds", "3", "--no-progress"]
 COLUMNS = ["engine", "repeat", "wall_s", "peak_rss_mb", "load_before", "load_after", "returncode"]
 
 
@@ -70,7 +70,7 @@ def cluster_start_up_s() -> float:
     code = """
 import os, time
 start = time.perf_counter()
-from sb3_reinforce.compare.cluster import open_client
+from sb3_reinforce.lab.compare.cluster import open_client
 workers = os.cpu_count() or 1
 with open_client(None, workers, 1) as client:
     client.wait_for_workers(workers)

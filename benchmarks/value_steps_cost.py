@@ -27,7 +27,7 @@ from typing import Any
 import torch as th
 
 from sb3_reinforce import REINFORCE
-from sb3_reinforce.compare.experiment import build_run
+from sb3_reinforce.lab.compare.experiment import build_run
 
 RESULTS = Path(__file__).parent / "results" / "value_steps_cost.csv"
 COLUMNS = ["env_id", "config", "path", "repeat", "steps", "wall_s", "cpu_s", "value_steps_s", "env_step_s", "steps_per_s"]

@@ -3,7 +3,7 @@ Wall time of training the zoo entries with each way of stepping their training e
 ``dummy``, ``subproc``, ``envpool``), in one run on one machine.
 
 Each measurement builds a fresh model from the algorithm's zoo entry as ``sb3-reinforce compare`` does (same
-wrappers, number of envs, normalization; :func:`~sb3_reinforce.compare.experiment.build_run`) and times
+wrappers, number of envs, normalization; :func:`~sb3_reinforce.lab.compare.experiment.build_run`) and times
 ``model.learn(--steps)``: wall-clock seconds, and those spent in the training VecEnv's ``step`` (the environments
 and their wrappers; with ``subproc``, the wait for the environment processes), whose share of the wall time is the
 ``env_share`` column. The ways of stepping run interleaved (dummy, subproc, envpool, dummy, ...) so that a slow
@@ -26,7 +26,7 @@ from typing import Any
 import torch as th
 from value_steps_cost import timed
 
-from sb3_reinforce.compare.experiment import VEC_ENV_TYPES, build_run
+from sb3_reinforce.lab.compare.experiment import VEC_ENV_TYPES, build_run
 
 RESULTS = Path(__file__).parent / "results" / "vec_env_speed.csv"
 COLUMNS = ["env_id", "algo", "vec_env", "n_envs", "repeat", "load_1min", "steps", "wall_s", "env_step_s", "env_share"]

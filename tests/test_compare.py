@@ -15,14 +15,11 @@ import pytest
 from matplotlib.figure import Figure
 
 import sb3_reinforce
-from sb3_reinforce.cli import main as cli_main
-from sb3_reinforce.compare import runner
-from sb3_reinforce.compare.cli import build_parser, main, parse_specs, runs_to_do, write_outputs
-from sb3_reinforce.compare.experiment import EVAL_SEED_OFFSET, build_run, known_algos, read_entry
-from sb3_reinforce.compare.render import build_parser as build_report_parser
-from sb3_reinforce.compare.render import main as render_main
-from sb3_reinforce.compare.render import update_readme
-from sb3_reinforce.compare.report import (
+from sb3_reinforce.lab.cli import main as cli_main
+from sb3_reinforce.lab.compare import runner
+from sb3_reinforce.lab.compare.cli import build_parser, main, parse_specs, runs_to_do, write_outputs
+from sb3_reinforce.lab.compare.experiment import EVAL_SEED_OFFSET, build_run, known_algos, read_entry
+from sb3_reinforce.lab.compare.report import (
     BAND_LABEL,
     PER_RUN_DIR,
     load_summaries,
@@ -33,7 +30,13 @@ from sb3_reinforce.compare.report import (
     summary_table,
     to_markdown,
 )
-from sb3_reinforce.compare.runner import RESULT_COLUMNS, RunSpec, code_version
+from sb3_reinforce.lab.compare.runner import RESULT_COLUMNS, RunSpec, code_version
+from sb3_reinforce.lab.report import build_parser as build_report_parser
+from sb3_reinforce.lab.report import main as render_main
+from sb3_reinforce.lab.report import update_readme
+from sb3_reinforce.lab.seed.reproduction import EPISODE_COLUMNS, RewardFloor
+from sb3_reinforce.lab.seed.reproduction import build_parser as build_seed_parser
+from sb3_reinforce.lab.seed.reproduction import main as seed_main
 from sb3_reinforce.lab.stats import (
     THRESHOLDS_WITHOUT_GYMNASIUM,
     bootstrap_ci,
@@ -43,9 +46,6 @@ from sb3_reinforce.lab.stats import (
     rolling_mean,
     solve_threshold,
 )
-from sb3_reinforce.seed_reproduction import EPISODE_COLUMNS, RewardFloor
-from sb3_reinforce.seed_reproduction import build_parser as build_seed_parser
-from sb3_reinforce.seed_reproduction import main as seed_main
 from sb3_reinforce.version import __version__
 from tests.test_compare_cluster import assert_localhost_only
 
@@ -480,7 +480,7 @@ def test_stopping_seed_stops_its_workers(tmp_path: Path, sig: str) -> None:
     # As compare: the workers do not outlive the command, which says so in one line and exits 130.
     import sys
 
-    cmd = [sys.executable, "-m", "sb3_reinforce.cli", "seed", "--env", "CartPole-v1", "--episodes", "1000000"]
+    cmd = [sys.executable, "-m", "sb3_reinforce.lab.cli", "seed", "--env", "CartPole-v1", "--episodes", "1000000"]
     cmd += ["--seeds", "1", "--workers", "1", "--out", str(tmp_path / "out")]
     episodes = tmp_path / "out" / "episodes_seed0.csv"
     # Stopped once the seed is training: its file has a finished episode
@@ -514,7 +514,7 @@ def test_stopping_compare_stops_its_workers(tmp_path: Path, sig: str, vec_env: s
     # and the command exits as interrupted (130).
     import sys
 
-    cmd = [sys.executable, "-m", "sb3_reinforce.compare", "--env", "CartPole-v1", "--algos", "reinforce"]
+    cmd = [sys.executable, "-m", "sb3_reinforce.lab.compare", "--env", "CartPole-v1", "--algos", "reinforce"]
     # 2 runs on 1 worker of the local Dask cluster: the second waits on the scheduler while the first trains
     cmd += ["--seeds", "2", "--budget", "10000000", "--workers", "1", "--no-progress", "--out", str(tmp_path / "out")]
     cmd += ["--vec-env", vec_env]

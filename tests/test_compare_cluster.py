@@ -21,8 +21,8 @@ import psutil
 import pytest
 from distributed import Client
 
-from sb3_reinforce.compare.report import PER_RUN_DIR
-from sb3_reinforce.compare.runner import RESULT_COLUMNS
+from sb3_reinforce.lab.compare.report import PER_RUN_DIR
+from sb3_reinforce.lab.compare.runner import RESULT_COLUMNS
 
 REPO = Path(__file__).resolve().parents[1]
 DASK = str(Path(sys.executable).parent / "dask")
@@ -104,7 +104,7 @@ def _wait_for_workers(cluster: Cluster, security: object = None) -> None:
 def _compare(
     out: Path, scheduler: str, *args: str, env: dict[str, str] | None = None, stderr: int = subprocess.STDOUT
 ) -> subprocess.Popen:
-    command = [sys.executable, "-m", "sb3_reinforce.compare", *TINY, "--out", str(out), "--scheduler", scheduler, *args]
+    command = [sys.executable, "-m", "sb3_reinforce.lab.compare", *TINY, "--out", str(out), "--scheduler", scheduler, *args]
     return subprocess.Popen(
         command, cwd=out.parent, env=env or _environment(), stdout=subprocess.PIPE, stderr=stderr, text=True
     )

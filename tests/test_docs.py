@@ -42,7 +42,7 @@ SUMMARY_COMMAND = r"`sb3-reinforce report ((?:benchmarks/results/\S+ )+)--summar
 def test_summary_is_the_committed_results(page: str, monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     # The results tables of the README and of the results page are what `report --summary` makes of the committed
     # folders, so they cannot go stale; the results page opens with the figure the same command draws
-    from sb3_reinforce.compare.report import overview_table, plot_overview, to_markdown
+    from sb3_reinforce.lab.compare.report import overview_table, plot_overview, to_markdown
 
     text = (REPO / page).read_text()
     command = re.search(SUMMARY_COMMAND.format(page=re.escape(page)), text)

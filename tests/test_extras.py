@@ -12,12 +12,12 @@ REPO = Path(__file__).resolve().parents[1]
 @pytest.mark.parametrize(
     "argv, extra, missing",
     [
-        (["sb3_reinforce.cli", "compare", "--env", "CartPole-v1"], "compare", "pandas"),
-        (["sb3_reinforce.cli", "report", "."], "compare", "pandas"),
+        (["sb3_reinforce.lab.cli", "compare", "--env", "CartPole-v1"], "compare", "pandas"),
+        (["sb3_reinforce.lab.cli", "report", "."], "compare", "pandas"),
         (["sb3_reinforce.lab.zoo", "benchmark", "--help"], "zoo", "pandas"),
         # Dask's distributed runs the runs of compare and seed
-        (["sb3_reinforce.cli", "compare", "--env", "CartPole-v1"], "compare", "distributed"),
-        (["sb3_reinforce.cli", "seed", "--env", "CartPole-v1", "--out", "never_written"], "compare", "distributed"),
+        (["sb3_reinforce.lab.cli", "compare", "--env", "CartPole-v1"], "compare", "distributed"),
+        (["sb3_reinforce.lab.cli", "seed", "--env", "CartPole-v1", "--out", "never_written"], "compare", "distributed"),
     ],
 )
 def test_a_missing_extra_is_named(argv: list[str], extra: str, missing: str) -> None:

@@ -15,7 +15,7 @@ experiment or where the seed's script bounded its episodes itself:
   values in [0, 255] (unscaled, as the script fed them to its network), and the policy picks one of the three
   action dimensions to set to 1 (steer right, gas, brake), as the script did.
 - The others (``LunarLander``, ``CartPole``, ``Acrobot``): the registered time limit, on purpose, instead of the
-  seed's unwrapped env and 120-second wall-clock cut (see :mod:`sb3_reinforce.seed_reproduction`).
+  seed's unwrapped env and 120-second wall-clock cut (see :mod:`sb3_reinforce.lab.seed.reproduction`).
 """
 
 import dataclasses

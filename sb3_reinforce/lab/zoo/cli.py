@@ -22,8 +22,9 @@ from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from sb3_reinforce.cli import missing_extra
+from sb3_reinforce import REINFORCE
 from sb3_reinforce.lab.envpool_vec_env import ENVPOOL
+from sb3_reinforce.lab.extras import missing_extra
 
 if TYPE_CHECKING:
     from sb3_reinforce.lab.zoo.storage import FaultTolerance
@@ -45,7 +46,6 @@ def register() -> None:
     from rl_zoo3.hyperparams_opt import HYPERPARAMS_CONVERTER, HYPERPARAMS_SAMPLER
     from rl_zoo3.utils import ALGOS
 
-    from sb3_reinforce import REINFORCE
     from sb3_reinforce.lab.zoo.exp_manager import ALGO_NAME, ReinforceExperimentManager
     from sb3_reinforce.lab.zoo.hyperparams_opt import convert_reinforce_params, sample_reinforce_params
 

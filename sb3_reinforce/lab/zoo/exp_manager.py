@@ -35,6 +35,7 @@ from rl_zoo3.utils import ALGOS
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 
+from sb3_reinforce import REINFORCE
 from sb3_reinforce.lab.envpool_vec_env import ENVPOOL, WrapperSpec, check_envpool_env, envpool_vec_env_class, split_wrappers
 from sb3_reinforce.lab.zoo.configs import CONFIG_NAMES, config_path
 from sb3_reinforce.lab.zoo.hyperparams_opt import NORMALIZE_OBSERVATIONS_KWARGS, suggest_n_envs, suggest_normalize_observations
@@ -109,8 +110,6 @@ def check_reinforce_values(hyperparams: dict[str, Any]) -> None:
 
     :param hyperparams: Constructor keyword arguments (as the zoo passes them)
     """
-    from sb3_reinforce import REINFORCE
-
     defaults = hyperparameter_defaults(REINFORCE)
     validate_hyperparameters({name: hyperparams.get(name, default) for name, default in defaults.items()})
 

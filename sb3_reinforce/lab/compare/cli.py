@@ -1,12 +1,12 @@
 """
 ``sb3-reinforce compare``: REINFORCE vs PPO vs A2C (or any algorithm rl_zoo3 knows) on one environment, same seeds,
 same evaluation protocol. Every run is built by rl_zoo3's experiment manager from the algorithm's zoo entry, as
-``sb3-reinforce-zoo train`` builds it (see :mod:`sb3_reinforce.compare.experiment`).
+``sb3-reinforce-zoo train`` builds it (see :mod:`sb3_reinforce.lab.compare.experiment`).
 
     sb3-reinforce compare --env CartPole-v1 --seeds 3
 
 Every argument is checked, and every algorithm's hyperparameters are loaded, before any training starts.
-Runs go on Dask (:mod:`sb3_reinforce.compare.cluster`): by default a local cluster of worker processes on
+Runs go on Dask (:mod:`sb3_reinforce.lab.compare.cluster`): by default a local cluster of worker processes on
 127.0.0.1 (one per CPU core), or the cluster of ``--scheduler``; each run's files come back into
 ``OUT/per_run/`` as it goes, wherever it ran. Finished runs are skipped when the command is run again, so a
 comparison can be resumed after an interruption or extended with more seeds or algorithms. ``OUT/results.csv``,
@@ -25,8 +25,8 @@ import gymnasium as gym
 import pandas as pd
 from tqdm import tqdm
 
-from sb3_reinforce.compare.cluster import ClusterError, Job, JobResult, RunChannel, check_workers, open_client, run_jobs
-from sb3_reinforce.compare.experiment import (
+from sb3_reinforce.lab.compare.cluster import ClusterError, Job, JobResult, RunChannel, check_workers, open_client, run_jobs
+from sb3_reinforce.lab.compare.experiment import (
     DEFAULT_ALGOS,
     VEC_ENV_TYPES,
     check_vec_env,
@@ -34,8 +34,8 @@ from sb3_reinforce.compare.experiment import (
     read_entry,
     run_cpus,
 )
-from sb3_reinforce.compare.report import PER_RUN_DIR, load_summaries, plot_learning_curves, summary_table, to_markdown
-from sb3_reinforce.compare.runner import Checkpoint, RunSpec, run
+from sb3_reinforce.lab.compare.report import PER_RUN_DIR, load_summaries, plot_learning_curves, summary_table, to_markdown
+from sb3_reinforce.lab.compare.runner import Checkpoint, RunSpec, run
 from sb3_reinforce.lab.stats import solve_threshold
 
 __all__ = ["build_parser", "main", "parse_specs", "runs_to_do", "write_outputs"]
@@ -214,7 +214,7 @@ def _write_files(out_dir: Path, files: dict[str, bytes]) -> None:
     """
     Write a run's files (relative paths) into ``out_dir``, each whole and then renamed into place. A JSON file (a
     checkpoint's state, a run's summary) says the others are complete: an old one is removed first and the new one
-    written last, as :class:`~sb3_reinforce.compare.runner.Checkpoint` does, so that a command stopped in between
+    written last, as :class:`~sb3_reinforce.lab.compare.runner.Checkpoint` does, so that a command stopped in between
     leaves no JSON beside files of another evaluation.
     """
     for relative in files:
@@ -242,7 +242,7 @@ def _run_files(out_dir: Path, spec: RunSpec) -> dict[str, bytes]:
 
 def _run_all(todo: list[RunSpec], out_dir: Path, args: argparse.Namespace) -> dict[str, str]:
     """
-    Run ``todo`` on Dask (see :mod:`sb3_reinforce.compare.cluster`), writing each run's files into ``out_dir`` as
+    Run ``todo`` on Dask (see :mod:`sb3_reinforce.lab.compare.cluster`), writing each run's files into ``out_dir`` as
     they come back.
 
     :return: The runs that failed: name -> reason

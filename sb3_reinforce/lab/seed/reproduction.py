@@ -2,9 +2,9 @@
 The seed re-run: the seed's agent (:func:`~sb3_reinforce.lab.seed.presets.seed_hyperparams`) trained for a fixed
 number of episodes, one training-episode return per row, x axis in episodes, as the blog post reported it.
 
-    python -m sb3_reinforce.seed_reproduction --env LunarLander-v3 --episodes 5000 --seeds 3 --out DIR
+    python -m sb3_reinforce.lab.seed.reproduction --env LunarLander-v3 --episodes 5000 --seeds 3 --out DIR
 
-Each seed runs in a worker process of a local Dask cluster on 127.0.0.1 (:mod:`sb3_reinforce.compare.cluster`,
+Each seed runs in a worker process of a local Dask cluster on 127.0.0.1 (:mod:`sb3_reinforce.lab.compare.cluster`,
 ``--workers`` of them) and appends one row per finished training episode to ``DIR/episodes_seedN.csv``, sent
 back to ``DIR`` every few seconds (so an interrupted run keeps its finished episodes, but those of its last
 seconds). A seed whose episodes are all in the file is skipped when the command is run again.
@@ -49,9 +49,9 @@ from sb3_reinforce.reinforce import REINFORCE
 from sb3_reinforce.reinforce.buffers import RolloutLimitError
 
 if TYPE_CHECKING:
-    from sb3_reinforce.compare.cluster import RunChannel
+    from sb3_reinforce.lab.compare.cluster import RunChannel
 
-__all__ = ["EPISODE_COLUMNS", "RewardFloor", "build_parser", "main", "run_seed", "stopped_reason"]
+__all__ = ["EPISODE_COLUMNS", "RewardFloor", "build_parser", "main", "run_seed"]
 
 EPISODE_COLUMNS = ["env", "seed", "episode", "steps", "wall_time_s", "episode_return", "episode_length", "peak_rss_mb"]
 
@@ -201,16 +201,6 @@ def _settings(n_episodes: int, max_steps: int | None, max_episode_steps: int) ->
     return dict(episodes=n_episodes, max_steps=max_steps, max_episode_steps=max_episode_steps)
 
 
-def stopped_reason(path: Path) -> str:
-    """
-    Why a seed stopped early, from its ``episodes_seedN.stopped`` file.
-
-    :param path: The ``.stopped`` file
-    :return: One line, e.g. "seed 0 stopped after 114 of 500 episodes: the step cap of ... was reached"
-    """
-    return str(json.loads(path.read_text())["reason"])
-
-
 def _finished(path: Path, n_episodes: int, max_steps: int | None = None, max_episode_steps: int = 1_000_000) -> bool:
     stopped = _stopped_path(path)
     if stopped.exists():
@@ -290,8 +280,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> None:
     """Command line entry point (see the module docstring)."""
     # The compare extra's modules (Dask runs the seeds), imported before anything is written
-    from sb3_reinforce.compare.cluster import Job, JobResult, open_client, run_jobs
-    from sb3_reinforce.compare.render import render_seed
+    from sb3_reinforce.lab.compare.cluster import Job, JobResult, open_client, run_jobs
+    from sb3_reinforce.lab.seed.report import render_seed
 
     parser = build_parser()
     args = parser.parse_args(argv)

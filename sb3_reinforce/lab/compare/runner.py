@@ -43,8 +43,8 @@ from stable_baselines3.common.evaluation import evaluate_policy
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecEnv, sync_envs_normalization
 
-from sb3_reinforce.compare.experiment import build_run
-from sb3_reinforce.compare.report import PER_RUN_DIR
+from sb3_reinforce.lab.compare.experiment import build_run
+from sb3_reinforce.lab.compare.report import PER_RUN_DIR
 from sb3_reinforce.version import __version__
 
 __all__ = ["RESULT_COLUMNS", "Checkpoint", "ComparisonEvalCallback", "RunSpec", "code_version", "process_tree_cpu_s", "run"]
@@ -78,7 +78,7 @@ class RunSpec:
     :param eval_freq: Evaluate every this many environment steps
     :param n_eval_episodes: Episodes per evaluation (deterministic, and again stochastic)
     :param config_path: The algorithm's zoo yml (None: the default one, as
-        :func:`~sb3_reinforce.compare.experiment.read_entry`)
+        :func:`~sb3_reinforce.lab.compare.experiment.read_entry`)
     """
 
     env_id: str

@@ -1,7 +1,0 @@
-"""The comparison of REINFORCE with PPO and A2C: ``sb3-reinforce compare`` / ``python -m sb3_reinforce.compare``."""
-
-from sb3_reinforce.compare.cli import main
-from sb3_reinforce.compare.experiment import DEFAULT_ALGOS, ZooEntry, build_run, known_algos, read_entry
-from sb3_reinforce.compare.runner import RESULT_COLUMNS, RunSpec, run
-
-__all__ = ["DEFAULT_ALGOS", "RESULT_COLUMNS", "RunSpec", "ZooEntry", "build_run", "known_algos", "main", "read_entry", "run"]

@@ -1,3 +1,0 @@
-from sb3_reinforce.compare.cli import main
-
-main()

@@ -1,0 +1,3 @@
+from sb3_reinforce.lab.compare.cli import main
+
+main()
