@@ -1,8 +1,8 @@
 """
 What the value baseline's own fitting steps (``n_value_steps``) cost, with the critic's features computed once per
-batch (``REINFORCE._value_predictor``'s cached path, the default with a shared features extractor) against every
-step running the whole network through ``predict_values`` (the path before it, and still the one for a critic with
-its own extractor), in one run.
+batch (the cached path of ``sb3_reinforce.reinforce.value_fitting._value_predictor``, the default with a shared
+features extractor) against every step running the whole network through ``predict_values`` (the path before it, and
+still the one for a critic with its own extractor), in one run.
 
 Each measurement builds a fresh model from a zoo config as ``sb3-reinforce compare`` does (same wrappers, same
 number of envs) and times ``model.learn(--steps)``: wall-clock and CPU seconds (``time.process_time``, which a
@@ -16,11 +16,12 @@ printed and every measurement is appended to the CSV.
 """
 
 import argparse
+import contextlib
 import csv
 import statistics
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +29,7 @@ import torch as th
 
 from sb3_reinforce import REINFORCE
 from sb3_reinforce.lab.compare.experiment import build_run
+from sb3_reinforce.reinforce import value_fitting
 
 RESULTS = Path(__file__).parent / "results" / "value_steps_cost.csv"
 COLUMNS = ["env_id", "config", "path", "repeat", "steps", "wall_s", "cpu_s", "value_steps_s", "env_step_s", "steps_per_s"]
@@ -47,6 +49,23 @@ def timed(function: Callable[..., Any], seconds: list[float]) -> Callable[..., A
     return wrapper
 
 
+@contextlib.contextmanager
+def appending_rows(out: Path, columns: list[str]) -> Iterator[Callable[[dict[str, Any]], None]]:
+    """A function that appends a row to the CSV ``out`` (its header first if the file is new), flushed and printed."""
+    new_file = not out.exists()
+    with out.open("a", newline="") as file:
+        writer = csv.DictWriter(file, fieldnames=columns)
+        if new_file:
+            writer.writeheader()
+
+        def write(row: dict[str, Any]) -> None:
+            writer.writerow(row)
+            file.flush()
+            print(row, flush=True)
+
+        yield write
+
+
 def measure(env_id: str, config: Path, path: str, steps: int, seed: int) -> dict[str, Any]:
     """Train a fresh model for ``steps`` steps with the ``cached`` or the ``full`` value-step path."""
     th.set_num_threads(1)
@@ -54,14 +73,19 @@ def measure(env_id: str, config: Path, path: str, steps: int, seed: int) -> dict
         built = build_run("reinforce", env_id, seed, steps, Path(log_folder), config)
         model = built.model
         assert isinstance(model, REINFORCE) and model.n_value_steps > 0, "the config must fit the value by steps of its own"
-        if path == "full":  # every value step through predict_values: the features extractor forward and backward
-            model._value_predictor = lambda observations: lambda: model.policy.predict_values(observations)  # type: ignore[method-assign]
+        assert model.value_fitter is not None
         value_seconds, env_seconds = [0.0], [0.0]
-        model._fit_value_baseline = timed(model._fit_value_baseline, value_seconds)  # type: ignore[method-assign]
+        model.value_fitter.fit = timed(model.value_fitter.fit, value_seconds)  # type: ignore[method-assign]
         built.train_env.step = timed(built.train_env.step, env_seconds)  # type: ignore[method-assign]
-        wall, cpu = time.perf_counter(), time.process_time()
-        model.learn(steps)
-        wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+        cached_predictor = value_fitting._value_predictor
+        if path == "full":  # every value step through predict_values: the features extractor forward and backward
+            value_fitting._value_predictor = lambda policy, observations: lambda: policy.predict_values(observations)
+        try:
+            wall, cpu = time.perf_counter(), time.process_time()
+            model.learn(steps)
+            wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+        finally:
+            value_fitting._value_predictor = cached_predictor
         built.train_env.close()
         built.eval_env.close()
     n = model.num_timesteps
@@ -80,19 +104,13 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     rows = []
-    new_file = not args.out.exists()
-    with args.out.open("a", newline="") as file:
-        writer = csv.DictWriter(file, fieldnames=COLUMNS)
-        if new_file:
-            writer.writeheader()
+    with appending_rows(args.out, COLUMNS) as write:
         for repeat in range(args.repeats):
             for path in ("cached", "full"):
                 row = dict(env_id=args.env, config=str(args.config), path=path, repeat=repeat)
                 row.update(measure(args.env, args.config, path, args.steps, args.seed))
-                writer.writerow(row)
-                file.flush()
+                write(row)
                 rows.append(row)
-                print(row, flush=True)
     for key in ("steps_per_s", "cpu_steps_per_s", "value_steps_s", "env_step_s", "wall_s"):
         cached, full = (statistics.median(r[key] for r in rows if r["path"] == p) for p in ("cached", "full"))
         print(f"{key}: cached {cached:.2f}, full {full:.2f}, cached / full {cached / full:.2f}")

@@ -15,7 +15,6 @@ beside it. Every measurement is appended to the CSV.
 """
 
 import argparse
-import csv
 import os
 import statistics
 import tempfile
@@ -24,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 import torch as th
-from value_steps_cost import timed
+from value_steps_cost import appending_rows, timed
 
 from sb3_reinforce.lab.compare.experiment import VEC_ENV_TYPES, build_run
 
@@ -64,20 +63,14 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     algos, vec_envs = args.algos.split(","), args.vec_envs.split(",")
     rows = []
-    new_file = not args.out.exists()
-    with args.out.open("a", newline="") as file:
-        writer = csv.DictWriter(file, fieldnames=COLUMNS)
-        if new_file:
-            writer.writeheader()
+    with appending_rows(args.out, COLUMNS) as write:
         for algo in algos:
             for repeat in range(args.repeats):
                 for vec_env in vec_envs:
                     row = dict(env_id=args.env, algo=algo, vec_env=vec_env, repeat=repeat)
                     row.update(measure(args.env, algo, vec_env, args.steps, args.seed))
-                    writer.writerow(row)
-                    file.flush()
+                    write(row)
                     rows.append(row)
-                    print(row, flush=True)
     for algo in algos:
         rates = {
             v: statistics.median(r["steps_per_s"] for r in rows if (r["algo"], r["vec_env"]) == (algo, v)) for v in vec_envs
