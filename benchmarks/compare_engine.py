@@ -23,8 +23,8 @@ from pathlib import Path
 import psutil
 
 REPO = Path(__file__).resolve().parents[1]
-#: The README's main job (its --out and --no-progress added)
-MAIN_JOB = ["-m", "sb3_reinforce.lab.compare", "--env", "CartPole-v1", "--seeds", "3", "--no-progress"]
+#: The README's main job (its --out and --no-progress added), after the compare module of the checkout
+MAIN_JOB = ["--env", "CartPole-v1", "--seeds", "3", "--no-progress"]
 COLUMNS = ["engine", "repeat", "wall_s", "peak_rss_mb", "load_before", "load_after", "returncode"]
 
 
@@ -52,7 +52,9 @@ def run_main_job(checkout: Path, out: Path) -> tuple[float, float, int]:
     """
     env = dict(os.environ, PYTHONPATH=str(checkout))
     start = time.perf_counter()
-    command = subprocess.Popen([sys.executable, *MAIN_JOB, "--out", str(out)], env=env, cwd=out.parent)
+    # the compare package moved under sb3_reinforce/lab/ after the pool was replaced
+    module = "sb3_reinforce.lab.compare" if (checkout / "sb3_reinforce" / "lab").is_dir() else "sb3_reinforce.compare"
+    command = subprocess.Popen([sys.executable, "-m", module, *MAIN_JOB, "--out", str(out)], env=env, cwd=out.parent)
     parent = psutil.Process(command.pid)
     peak = 0.0
     while command.poll() is None:

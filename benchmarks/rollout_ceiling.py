@@ -39,6 +39,7 @@ import numpy as np
 import torch as th
 from throughput import make_env, time_raw  # benchmarks/throughput.py, next to this script
 
+import sb3_reinforce.reinforce.reinforce as reinforce_module
 from sb3_reinforce import REINFORCE
 
 PARTS = ("env step", "sampling", "buffer add", "finite check", "episode info", "compute_returns", "train")
@@ -76,7 +77,9 @@ def split_learn(env_id: str, n_envs: int, steps: int, seed: int) -> tuple[dict[s
         return None if sampler is None else _timed(sampler, "sampling", totals)
 
     model.policy.fast_sampler = timed_sampler  # type: ignore[method-assign]
-    model._check_finite = _timed(model._check_finite, "finite check", totals)  # type: ignore[method-assign]
+    # the finite check is a function of the algorithm's module (finite_checks.check_step), called by name there
+    check_step = reinforce_module.check_step
+    reinforce_module.check_step = _timed(check_step, "finite check", totals)
     model._update_info_buffer = _timed(model._update_info_buffer, "episode info", totals)  # type: ignore[method-assign]
     model.train = _timed(model.train, "train", totals)  # type: ignore[method-assign]
     buffer = model.rollout_buffer
@@ -84,7 +87,10 @@ def split_learn(env_id: str, n_envs: int, steps: int, seed: int) -> tuple[dict[s
     buffer.compute_returns = _timed(buffer.compute_returns, "compute_returns", totals)  # type: ignore[method-assign]
 
     start = time.process_time()
-    model.learn(steps)
+    try:
+        model.learn(steps)
+    finally:
+        reinforce_module.check_step = check_step
     totals["learn"] = time.process_time() - start
     env.close()
     return dict(totals), vec_steps, model._n_updates

@@ -291,7 +291,7 @@ def test_sampler_gives_valid_reinforce_arguments() -> None:
     assert baselines == {"none", "value", "loo"} and normalizations == {False, True}
     trial = study.ask()
     trial.suggest_categorical("n_envs", [1, 2, 4, 8])
-    with pytest.raises(RuntimeError, match=r"sb3_reinforce\.zoo"):
+    with pytest.raises(RuntimeError, match=r"sb3_reinforce\.lab\.zoo"):
         sample_reinforce_params(trial, 0, trial.params["n_envs"] * 3, {})
 
 
