@@ -5,6 +5,8 @@
 # also saves best_model.zip). Usage: train.sh OUT ENV [ENV ...] (from the repository root, venv active).
 # Each env's run goes to OUT/reinforce/<env>_1/; copy.sh then takes what enjoy needs into rl-trained-agents/.
 set -euo pipefail
+# one torch thread per run (several runs share the cores; two threads each made all of them several times slower)
+export OMP_NUM_THREADS=${OMP_NUM_THREADS:-1}
 out=$1
 shift
 for env in "$@"; do
