@@ -139,6 +139,18 @@ def space_from_json(description: dict[str, Any]) -> spaces.Space:
 
 
 # --- the weights-only format ------------------------------------------------------------------------
+def _json_value(what: str, value: Any) -> Any:
+    """``value`` if a JSON round trip gives it back unchanged, else an ``UnsafeFileError`` naming ``what``."""
+    try:
+        if json.loads(json.dumps(value)) != value:
+            raise TypeError("changed by a JSON round trip (tuples?)")
+    except (TypeError, ValueError) as exc:
+        raise UnsafeFileError(
+            f"{what} = {value!r} is not a JSON value: the weights-only format cannot store it ({exc})"
+        ) from exc
+    return value
+
+
 def _policy_kwargs_to_json(policy_kwargs: dict[str, Any]) -> dict[str, Any]:
     result: dict[str, Any] = {}
     for key, value in policy_kwargs.items():
@@ -152,14 +164,7 @@ def _policy_kwargs_to_json(policy_kwargs: dict[str, Any]) -> dict[str, Any]:
                 )
             result[key] = name
             continue
-        try:
-            if json.loads(json.dumps(value)) != value:
-                raise TypeError("changed by a JSON round trip (tuples?)")
-        except (TypeError, ValueError) as exc:
-            raise UnsafeFileError(
-                f"policy_kwargs[{key!r}] = {value!r} is not a JSON value: the weights-only format cannot store it ({exc})"
-            ) from exc
-        result[key] = value
+        result[key] = _json_value(f"policy_kwargs[{key!r}]", value)
     return result
 
 
@@ -192,14 +197,7 @@ def _hyperparameter_to_json(model: REINFORCE, name: str) -> Any:
         return getattr(value, "__name__", None)
     if name == "tensorboard_log" and value is not None:
         return str(value)
-    try:
-        if json.loads(json.dumps(value)) != value:
-            raise TypeError("changed by a JSON round trip (tuples?)")
-    except (TypeError, ValueError) as exc:
-        raise UnsafeFileError(
-            f"`{name}` = {value!r} is not a JSON value: the weights-only format cannot store it ({exc})"
-        ) from exc
-    return value
+    return _json_value(f"`{name}`", value)
 
 
 def _hyperparameter_from_json(name: str, value: Any) -> Any:
