@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
+import pandas as pd
 import torch as th
 import yaml
 
@@ -189,6 +190,56 @@ def test_pilot_scores_of_a_study_trial_folder() -> None:
     scores = load("pilot_scores").run_scores(trial, 200, 800_000, label="t7")
     assert list(scores["seed"]) == [100, 101] and set(scores["folder"]) == {"t7"}
     assert round(scores["last 5"].mean(), 1) == 252.7
+
+
+def test_carracing_tuning_scores_the_control_from_the_pilot() -> None:
+    # The tuning README's figures for a_entry (488.2 and 635.8), recomputed from the pilot's committed runs
+    tuning = load("carracing_tuning")
+    seeds = tuning.seed_scores({"a_entry": tuning.CONFIG_FOLDERS["a_entry"]})
+    assert list(seeds["seed"]) == [100, 101]
+    assert [round(score, 1) for score in seeds["score"]] == [488.2, 635.8]
+
+
+def test_carracing_tuning_rule(tmp_path: Path) -> None:
+    # The rule on made-up evaluations: lowest seed first, mean when the lowest are within 10, nothing while a run is short
+    tuning = load("carracing_tuning")
+
+    def run(config: str, seed: int, last: list[float]) -> None:
+        folder = tmp_path / config / "per_run"
+        folder.mkdir(parents=True, exist_ok=True)
+        steps = [0, 850_000, 900_000, 950_000, 1_000_000][: 2 + len(last)]
+        returns = [-90.0, 0.0, *last]
+        frame = {"seed": seed, "steps": steps, "mean_return": returns}
+        pd.DataFrame(frame).to_csv(folder / f"reinforce_seed{seed}.csv", index=False)
+
+    folders = {config: [tmp_path / config] for config in ("a_entry", "b_gsde", "c_gsde_squash", "d_lin_lr")}
+    run("a_entry", 100, [500.0] * 3)
+    run("a_entry", 101, [700.0] * 3)  # lowest 500, mean 600
+    run("b_gsde", 100, [505.0] * 3)
+    run("b_gsde", 101, [505.0] * 3)  # lowest 505 (within 10 of a's), mean 505: behind a
+    run("c_gsde_squash", 100, [450.0] * 3)
+    run("c_gsde_squash", 101, [900.0] * 3)  # lowest 450: last, whatever its mean
+    run("d_lin_lr", 100, [600.0, 600.0])  # short of 1M
+    run("d_lin_lr", 101, [800.0] * 3)
+    tuning.CONFIG_FOLDERS = folders
+    seeds = tuning.seed_scores(folders)
+    assert seeds.set_index(["config", "seed"])["score"].isna().sum() == 1
+    assert tuning.verdict(seeds) == ["Stage 1 (seeds 100-101): undecided, waiting for d_lin_lr seeds 100 (950,000 steps)"]
+    run("d_lin_lr", 100, [520.0] * 3)  # lowest 520: first
+    seeds = tuning.seed_scores(folders)
+    lines = tuning.verdict(seeds)
+    ranking = "d_lin_lr > a_entry > b_gsde > c_gsde_squash"
+    assert lines[0] == f"Stage 1 (seeds 100-101): {ranking}; stage 2 runs d_lin_lr and a_entry"
+    waiting = "d_lin_lr seeds 102 (not started), 103 (not started); a_entry seeds 102 (not started), 103 (not started)"
+    assert lines[1] == f"Stage 2 (seeds 100-103): undecided, waiting for {waiting}"
+    for config, score in (("d_lin_lr", 470.0), ("a_entry", 490.0)):
+        run(config, 102, [score] * 3)
+        run(config, 103, [900.0] * 3)
+    lines = tuning.verdict(tuning.seed_scores(folders))
+    assert lines[1:] == [
+        "Stage 2 (seeds 100-103): the pick is a_entry (lowest 490.0, mean 647.5)",
+        "No config's score reaches 500; the pick is verified on seeds 5000-5002 all the same",
+    ]
 
 
 def test_value_steps_cost_tiny_budget(tmp_path: Path) -> None:
