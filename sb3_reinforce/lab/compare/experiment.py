@@ -93,13 +93,20 @@ def _quiet() -> Iterator[None]:
 
 
 def _manager(
-    algo: str, env_id: str, seed: int, budget: int, log_folder: str, config: Path | None, vec_env: str = "dummy"
+    algo: str,
+    env_id: str,
+    seed: int,
+    budget: int,
+    log_folder: str,
+    config: Path | None,
+    vec_env: str = "dummy",
+    envpool_threads: int = 1,
 ) -> Any:
     from sb3_reinforce.lab.zoo.exp_manager import ReinforceExperimentManager
 
     known_algos()  # registers REINFORCE
     args = argparse.Namespace(algo=algo, env=env_id, seed=seed, n_timesteps=budget, conf_file=config, source="compare")
-    return ReinforceExperimentManager(
+    manager = ReinforceExperimentManager(
         args,
         algo,
         env_id,
@@ -112,6 +119,8 @@ def _manager(
         config=None if config is None else str(config),
         vec_env_type=vec_env,
     )
+    manager.envpool_threads = envpool_threads
+    return manager
 
 
 @dataclass
@@ -182,6 +191,7 @@ def build_run(
     log_folder: Path,
     config: Path | None = None,
     vec_env: str = "dummy",
+    envpool_threads: int = 1,
 ) -> BuiltRun:
     """
     Build one run through the zoo's experiment manager, as ``sb3-reinforce-zoo train --algo ALGO --env ENV
@@ -196,10 +206,13 @@ def build_run(
     :param log_folder: Where the zoo writes the run's own files (monitor logs, the config it used)
     :param config: The algorithm's yml file (default: as :func:`read_entry`)
     :param vec_env: How the training environments are stepped, one of :data:`VEC_ENV_TYPES`
+    :param envpool_threads: EnvPool's worker threads, with ``vec_env="envpool"``: 1 by default, as a run has one
+        core (one torch thread too, see :func:`~sb3_reinforce.lab.compare.runner.run`); 0 for EnvPool's default,
+        a thread per core, whose idle threads spin while the policy computes
     :return: The run, ready to ``model.learn``
     """
     check_vec_env(vec_env, env_id)
-    manager = _manager(algo, env_id, seed, budget, str(log_folder), config, vec_env)
+    manager = _manager(algo, env_id, seed, budget, str(log_folder), config, vec_env, envpool_threads)
     with _quiet():
         built = manager.setup_experiment()
         assert built is not None, "setup_experiment() builds a model unless optimizing"

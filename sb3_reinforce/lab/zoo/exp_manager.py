@@ -129,6 +129,9 @@ class ReinforceExperimentManager(ExperimentManager):
     #: Train on EnvPool whatever ``vec_env_type`` says (``sb3-reinforce-zoo train --vec-env envpool`` sets it:
     #: rl_zoo3's own flag offers dummy and subproc only).
     envpool: bool = False
+    #: EnvPool's worker threads for the training environments (0: EnvPool's default, one per core;
+    #: ``sb3-reinforce compare`` sets 1, as a run has one core there).
+    envpool_threads: int = 0
 
     def __init__(self, args: Any, algo: str, *positional: Any, config: str | None = None, **kwargs: Any) -> None:
         if config is None and algo == ALGO_NAME:
@@ -235,7 +238,12 @@ class ReinforceExperimentManager(ExperimentManager):
         else:
             monitor_dir = None if no_log else self.save_path
             self.vec_env_class = envpool_vec_env_class(  # type: ignore[assignment]
-                self.env_name.gym_id, self._env_wrappers, self.env_kwargs, monitor_dir, self.monitor_kwargs
+                self.env_name.gym_id,
+                self._env_wrappers,
+                self.env_kwargs,
+                monitor_dir,
+                self.monitor_kwargs,
+                num_threads=self.envpool_threads,
             )
         try:
             return super().create_envs(n_envs, eval_env, no_log)
