@@ -97,8 +97,16 @@ def open_client(scheduler: str | None, n_workers: int, worker_cpus: int, dashboa
     """
     if scheduler is None:
         with (
-            # A worker process may start processes of its own (--vec-env subproc's environments)
-            dask.config.set({"distributed.worker.daemon": False}),
+            dask.config.set(
+                {
+                    # A worker process may start processes of its own (--vec-env subproc's environments)
+                    "distributed.worker.daemon": False,
+                    # Dask starts worker processes with MALLOC_TRIM_THRESHOLD_=65536, which turns off glibc's dynamic
+                    # mmap threshold: every large array is then mapped and unmapped afresh, and CarRacing's training
+                    # runs 2.1x slower (benchmarks/results/malloc_trim.csv). None unsets it (Dask's documented way).
+                    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+                }
+            ),
             LocalCluster(
                 host="127.0.0.1",
                 n_workers=n_workers,
