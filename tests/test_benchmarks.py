@@ -257,11 +257,25 @@ def test_value_steps_cost_tiny_budget(tmp_path: Path) -> None:
 def test_vec_env_speed_tiny_budget(tmp_path: Path) -> None:
     # One row per algorithm and way of stepping the training envs, interleaved, each with its share of time in the env
     out = tmp_path / "vec_env_speed.csv"
-    args = ["--env", "CartPole-v1", "--algos", "reinforce", "--steps", "300", "--out", str(out)]
+    args = ["--env", "CartPole-v1", "--algos", "reinforce", "--steps", "300", "--out", str(out), "--envpool-threads", "0,1"]
     load("vec_env_speed").main(args)
     rows = read_rows(out)
-    assert [row["vec_env"] for row in rows] == ["dummy", "subproc", "envpool"]
+    assert [(row["vec_env"], row["envpool_threads"]) for row in rows] == [
+        ("dummy", ""),
+        ("subproc", ""),
+        ("envpool", "0"),
+        ("envpool", "1"),
+    ]
     assert all(int(row["steps"]) >= 300 and 0 < float(row["env_share"]) < 1 for row in rows)
+
+
+def test_malloc_trim_tiny_budget(tmp_path: Path) -> None:
+    # One run in a fresh process without the variable and one with Dask's 65536, each its training seconds
+    out = tmp_path / "malloc_trim.csv"
+    load("malloc_trim").main(["--env", "CartPole-v1", "--steps", "500", "--repeats", "1", "--out", str(out)])
+    rows = read_rows(out)
+    assert [row["malloc_trim_threshold"] for row in rows] == ["unset", "65536"]
+    assert all(int(row["steps"]) >= 500 and float(row["train_s"]) > 0 for row in rows)
 
 
 def test_only_unfinished_runs_keep_a_checkpoint() -> None:

@@ -47,6 +47,16 @@ def _environment() -> dict[str, str]:
     return dict(os.environ, PYTHONPATH=str(REPO), OMP_NUM_THREADS="1")
 
 
+def _guide_dask_config(folder: Path) -> Path:
+    """A folder with the guide's Dask configuration for worker machines (its first yaml block), for DASK_CONFIG."""
+    guide = (REPO / "docs" / "guide" / "distributed_compare.md").read_text()
+    block = guide.split("```yaml\n", 1)[1].split("```", 1)[0]
+    assert "MALLOC_TRIM_THRESHOLD_: null" in block, block
+    (folder / "dask-config").mkdir(exist_ok=True)
+    (folder / "dask-config" / "sb3-reinforce.yaml").write_text(block)
+    return folder / "dask-config"
+
+
 def _stop(process: subprocess.Popen) -> None:
     with contextlib.suppress(ProcessLookupError):
         os.killpg(process.pid, signal.SIGKILL)
@@ -78,6 +88,7 @@ def dask_cluster(folder: Path, tls_args: list[str] | None = None) -> Iterator[Cl
         time.sleep(0.5)  # written whole
         address = json.loads(scheduler_file.read_text())["address"]
         assert address.split("://")[1].startswith("127.0.0.1:"), address
+        worker_env = dict(_environment(), DASK_CONFIG=str(_guide_dask_config(folder)))
         for name in ("w1", "w2"):
             (folder / name).mkdir()
             command = [DASK, "worker", address, "--host", "127.0.0.1", "--nworkers", "1", "--nthreads", "1"]
@@ -85,7 +96,7 @@ def dask_cluster(folder: Path, tls_args: list[str] | None = None) -> Iterator[Cl
             workers[name] = subprocess.Popen(
                 [*command, *tls_args],
                 cwd=folder / name,
-                env=_environment(),
+                env=worker_env,
                 start_new_session=True,
                 stdout=subprocess.DEVNULL,
                 stderr=subprocess.DEVNULL,
@@ -151,6 +162,7 @@ def test_compare_on_a_cluster_uses_both_workers(tmp_path: Path) -> None:
         assert_localhost_only([cluster.scheduler.pid, *(w.pid for w in cluster.workers.values())])
         output, _ = compare.communicate(timeout=600)
         assert compare.returncode == 0, output
+    assert "warning" not in output, output  # the workers started as the guide says: no MALLOC_TRIM_THRESHOLD_
     names = ["reinforce_seed0", "ppo_seed0", "reinforce_seed1", "ppo_seed1"]
     summaries = _check_every_row(out, names)
     # Each run's JSON names its worker: both ran at least one, in folders of their own (none is --out)
@@ -271,3 +283,24 @@ def test_a_worker_with_another_package_is_named(tmp_path: Path) -> None:
         finally:
             _stop(third)
     assert "worker w3-other-release" in line and "has other versions: sb3_reinforce 0.0.1 (here " in line, line
+
+
+def test_workers_with_dasks_malloc_trim_threshold_are_warned_of(monkeypatch: pytest.MonkeyPatch) -> None:
+    # Dask's own defaults set MALLOC_TRIM_THRESHOLD_=65536 in the worker processes (2x slower CarRacing training):
+    # the command names such a worker; its own local cluster starts without it
+    from distributed import LocalCluster
+
+    from sb3_reinforce.lab.compare.cluster import check_workers, open_client
+
+    monkeypatch.setenv("MALLOC_TRIM_THRESHOLD_", "")  # restored at the end: a nanny writes it into this process too
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_")
+    with open_client(None, 1, 1) as client:
+        assert check_workers(client, 1, "the local cluster") == []
+    with (
+        LocalCluster(
+            host="127.0.0.1", n_workers=1, threads_per_worker=1, dashboard_address=None, resources={"CPU": 1}
+        ) as cluster,
+        Client(cluster, set_as_default=False) as client,
+    ):
+        warnings = check_workers(client, 1, cluster.scheduler_address)
+    assert len(warnings) == 1 and "runs with MALLOC_TRIM_THRESHOLD_=65536" in warnings[0], warnings

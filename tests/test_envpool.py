@@ -25,6 +25,7 @@ from sb3_reinforce.lab.compare.cli import main as compare_main
 from sb3_reinforce.lab.compare.report import PER_RUN_DIR
 from sb3_reinforce.lab.envpool_vec_env import (
     ENVPOOL_ENV_IDS,
+    EnvPoolVecEnv,
     WrapperSpec,
     make_envpool_vec_env,
     split_wrappers,
@@ -219,6 +220,22 @@ def test_compare_on_envpool(tmp_path: Path, capsys: pytest.CaptureFixture[str]) 
         compare_main(["--env", "BipedalWalker-v3", "--vec-env", "envpool", "--out", str(tmp_path / "no")])
     assert "BipedalWalker-v3 is not offered on EnvPool: choose among CartPole-v1" in capsys.readouterr().err
     assert not (tmp_path / "no" / PER_RUN_DIR).exists()  # refused before anything ran
+
+
+def test_a_compare_run_steps_envpool_on_one_thread(tmp_path: Path) -> None:
+    # A run has one core (one torch thread): its EnvPool gets one worker thread, not EnvPool's one per core
+    from sb3_reinforce.lab.compare.experiment import build_run
+
+    for threads in (1, 0):
+        kwargs = {} if threads == 1 else {"envpool_threads": 0}
+        built = build_run("reinforce", "CartPole-v1", 0, 1000, tmp_path / str(threads), vec_env="envpool", **kwargs)
+        built.train_env.reset()
+        env = built.train_env
+        while not isinstance(env, EnvPoolVecEnv):
+            env = env.venv  # type: ignore[attr-defined]
+        assert env.num_threads == threads and env._pool.config["num_threads"] == threads
+        built.train_env.close()
+        built.eval_env.close()
 
 
 def test_zoo_train_on_envpool(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

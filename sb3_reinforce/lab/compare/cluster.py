@@ -22,6 +22,7 @@ running run checks about once a second: it stops at once, its last checkpoint ke
 import contextlib
 import logging
 import multiprocessing
+import os
 import shutil
 import signal
 import time
@@ -81,6 +82,12 @@ class IgnoreInterrupt(WorkerPlugin):
         signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+#: The variable Dask's nanny sets to 65536 in the worker processes it starts (``distributed.nanny.pre-spawn-environ``).
+#: Set to any value, it turns off glibc's dynamic mmap threshold: every large array is then mapped and unmapped
+#: afresh, and CarRacing's training runs 2x slower (``benchmarks/results/malloc_trim.csv``; LunarLander's does not).
+MALLOC_TRIM = "MALLOC_TRIM_THRESHOLD_"
+
+
 @contextlib.contextmanager
 def open_client(scheduler: str | None, n_workers: int, worker_cpus: int, dashboard: str | None = None) -> Iterator[Client]:
     """
@@ -101,10 +108,8 @@ def open_client(scheduler: str | None, n_workers: int, worker_cpus: int, dashboa
                 {
                     # A worker process may start processes of its own (--vec-env subproc's environments)
                     "distributed.worker.daemon": False,
-                    # Dask starts worker processes with MALLOC_TRIM_THRESHOLD_=65536, which turns off glibc's dynamic
-                    # mmap threshold: every large array is then mapped and unmapped afresh, and CarRacing's training
-                    # runs 2.1x slower (benchmarks/results/malloc_trim.csv). None unsets it (Dask's documented way).
-                    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+                    # Not Dask's MALLOC_TRIM_THRESHOLD_=65536 (see MALLOC_TRIM); None unsets it, as Dask documents
+                    f"distributed.nanny.pre-spawn-environ.{MALLOC_TRIM}": None,
                 }
             ),
             LocalCluster(
@@ -149,15 +154,21 @@ def worker_versions() -> dict[str, str | None]:
     return versions
 
 
-def check_workers(client: Client, cpus: int, scheduler: str, subprocesses: bool = False) -> None:
+def malloc_trim_threshold() -> str | None:
+    """On a worker: its process's :data:`MALLOC_TRIM` (None: unset, glibc's dynamic thresholds)."""
+    return os.environ.get(MALLOC_TRIM)
+
+
+def check_workers(client: Client, cpus: int, scheduler: str, subprocesses: bool = False) -> list[str]:
     """
     Refuse a cluster without a worker, with a worker whose packages differ from this process's, or where no worker
-    lends ``cpus`` CPUs.
+    lends ``cpus`` CPUs; warn of workers whose processes run with :data:`MALLOC_TRIM` set.
 
     :param client: The cluster's client
     :param cpus: The CPUs the largest run asks for
     :param scheduler: The scheduler's address, for the messages
     :param subprocesses: Whether the runs start processes of their own (then a worker must not be daemonic)
+    :return: The warnings, one line each
     :raises ClusterError: naming the worker and what differs
     """
     workers = client.scheduler_info(n_workers=-1)["workers"]
@@ -185,6 +196,13 @@ def check_workers(client: Client, cpus: int, scheduler: str, subprocesses: bool 
             f"no worker of {scheduler} lends {cpus} CPU(s) (the most: {most:g}): start workers with "
             f"`dask worker {scheduler} --nthreads 1 --resources {CPU_RESOURCE}={cpus}` or more"
         )
+    return [
+        f"worker {workers.get(address, {}).get('name', address)} ({address}) runs with {MALLOC_TRIM}={value} "
+        "(Dask's default for the processes its nanny starts), where training on images runs about 2x slower: start "
+        "workers with the Dask configuration of the guide's 'A comparison across machines'"
+        for address, value in sorted(client.run(malloc_trim_threshold).items())
+        if value is not None
+    ]
 
 
 class RunChannel:
