@@ -90,28 +90,21 @@ def better_first(scored: pd.DataFrame) -> list[str]:
     return [row["config"] for row in sorted(rows, key=functools.cmp_to_key(compare))]
 
 
+def _waiting(stage: pd.DataFrame) -> str:
+    """The runs a stage still waits for, by config ("" when none)."""
+    return "; ".join(f"{row['config']} seeds {row['missing']}" for _, row in stage.iterrows() if row["missing"])
+
+
 def verdict(seeds: pd.DataFrame) -> list[str]:
     """What the rule says now, line by line: each stage's ranking, or what it waits for."""
-    lines = []
     stage_1 = config_scores(seeds, list(CONFIG_FOLDERS), STAGE_1_SEEDS)
-    waiting = stage_1[stage_1["missing"] != ""]
-    if len(waiting):
-        lines.append(
-            "Stage 1 (seeds 100-101): undecided, waiting for "
-            + "; ".join(f"{row['config']} seeds {row['missing']}" for _, row in waiting.iterrows())
-        )
-        return lines
+    if waiting := _waiting(stage_1):
+        return [f"Stage 1 (seeds 100-101): undecided, waiting for {waiting}"]
     ranking = better_first(stage_1)
-    lines.append(f"Stage 1 (seeds 100-101): {' > '.join(ranking)}; stage 2 runs {ranking[0]} and {ranking[1]}")
-    finalists = ranking[:2]
-    stage_2 = config_scores(seeds, finalists, STAGE_1_SEEDS + STAGE_2_SEEDS)
-    waiting = stage_2[stage_2["missing"] != ""]
-    if len(waiting):
-        lines.append(
-            "Stage 2 (seeds 100-103): undecided, waiting for "
-            + "; ".join(f"{row['config']} seeds {row['missing']}" for _, row in waiting.iterrows())
-        )
-        return lines
+    lines = [f"Stage 1 (seeds 100-101): {' > '.join(ranking)}; stage 2 runs {ranking[0]} and {ranking[1]}"]
+    stage_2 = config_scores(seeds, ranking[:2], STAGE_1_SEEDS + STAGE_2_SEEDS)
+    if waiting := _waiting(stage_2):
+        return [*lines, f"Stage 2 (seeds 100-103): undecided, waiting for {waiting}"]
     pick = better_first(stage_2)[0]
     best = stage_2.set_index("config").loc[pick]
     lines.append(f"Stage 2 (seeds 100-103): the pick is {pick} (lowest {best['lowest']:.1f}, mean {best['mean']:.1f})")
