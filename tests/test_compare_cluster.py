@@ -304,3 +304,18 @@ def test_workers_with_dasks_malloc_trim_threshold_are_warned_of(monkeypatch: pyt
     ):
         warnings = check_workers(client, 1, cluster.scheduler_address)
     assert len(warnings) == 1 and "runs with MALLOC_TRIM_THRESHOLD_=65536" in warnings[0], warnings
+
+
+def test_two_local_clusters_at_once_share_no_port() -> None:
+    # Two commands at once on one machine: neither cluster's scheduler takes Dask's default HTTP port 8787 (the
+    # second would warn that it is in use), and both listen on 127.0.0.1 only
+    import warnings
+
+    from sb3_reinforce.lab.compare.cluster import open_client
+
+    with warnings.catch_warnings(record=True) as caught, open_client(None, 1, 1), open_client(None, 1, 1):
+        warnings.simplefilter("always")
+        assert_localhost_only([os.getpid()])
+        ports = {c.laddr.port for c in psutil.Process().net_connections(kind="inet") if c.status == psutil.CONN_LISTEN}
+    assert 8787 not in ports, ports
+    assert not [w for w in caught if "already in use" in str(w.message)], [str(w.message) for w in caught]

@@ -118,6 +118,9 @@ def open_client(scheduler: str | None, n_workers: int, worker_cpus: int, dashboa
                 threads_per_worker=1,
                 processes=True,
                 dashboard_address=dashboard,
+                # Without a dashboard the scheduler still serves HTTP (health, metrics), on 8787 unless told: a free
+                # port instead, so that two commands at once on one machine do not collide (nor warn)
+                scheduler_kwargs={"dashboard_address": dashboard or "127.0.0.1:0"},
                 resources={CPU_RESOURCE: worker_cpus},
                 silence_logs=logging.ERROR,
             ) as cluster,
