@@ -93,20 +93,13 @@ def _quiet() -> Iterator[None]:
 
 
 def _manager(
-    algo: str,
-    env_id: str,
-    seed: int,
-    budget: int,
-    log_folder: str,
-    config: Path | None,
-    vec_env: str = "dummy",
-    envpool_threads: int = 1,
+    algo: str, env_id: str, seed: int, budget: int, log_folder: str, config: Path | None, vec_env: str = "dummy"
 ) -> Any:
     from sb3_reinforce.lab.zoo.exp_manager import ReinforceExperimentManager
 
     known_algos()  # registers REINFORCE
     args = argparse.Namespace(algo=algo, env=env_id, seed=seed, n_timesteps=budget, conf_file=config, source="compare")
-    manager = ReinforceExperimentManager(
+    return ReinforceExperimentManager(
         args,
         algo,
         env_id,
@@ -119,8 +112,6 @@ def _manager(
         config=None if config is None else str(config),
         vec_env_type=vec_env,
     )
-    manager.envpool_threads = envpool_threads
-    return manager
 
 
 @dataclass
@@ -212,7 +203,8 @@ def build_run(
     :return: The run, ready to ``model.learn``
     """
     check_vec_env(vec_env, env_id)
-    manager = _manager(algo, env_id, seed, budget, str(log_folder), config, vec_env, envpool_threads)
+    manager = _manager(algo, env_id, seed, budget, str(log_folder), config, vec_env)
+    manager.envpool_threads = envpool_threads
     with _quiet():
         built = manager.setup_experiment()
         assert built is not None, "setup_experiment() builds a model unless optimizing"
