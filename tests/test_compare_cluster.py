@@ -15,6 +15,7 @@ import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 import psutil
@@ -319,3 +320,25 @@ def test_two_local_clusters_at_once_share_no_port() -> None:
         ports = {c.laddr.port for c in psutil.Process().net_connections(kind="inet") if c.status == psutil.CONN_LISTEN}
     assert 8787 not in ports, ports
     assert not [w for w in caught if "already in use" in str(w.message)], [str(w.message) for w in caught]
+
+
+def test_a_resumed_runs_checkpoint_is_not_in_the_task_graph() -> None:
+    # A run's files (its checkpoint: 10 MB for CarRacing) reach its worker through a Variable; the task itself does
+    # not carry them too (Dask warned of a large graph on each resumed CarRacing run)
+    import warnings
+
+    from sb3_reinforce.lab.compare.cluster import Job, JobResult, open_client, run_jobs
+
+    def restored_size(channel: Any) -> tuple[int, bytes]:  # on the worker, in the run's folder
+        data = (channel.folder / "run.checkpoint.zip").read_bytes()
+        return len(data), data[:4]
+
+    checkpoint = b"PK\x03\x04" + os.urandom(12 * 2**20)  # over Dask's 10 MB large-graph-warning-threshold
+    results: dict[str, JobResult] = {}
+    with warnings.catch_warnings(record=True) as caught, open_client(None, 1, 1) as client:
+        warnings.simplefilter("always")
+        job = Job("run", restored_size, (), 1, "run.*", {"run.checkpoint.zip": checkpoint})
+        failures = run_jobs(client, [job], lambda *_: None, lambda name, result: results.update({name: result}))
+    assert failures == {}
+    assert results["run"].value == (len(checkpoint), b"PK\x03\x04")
+    assert not [w for w in caught if "large graph" in str(w.message)], [str(w.message) for w in caught]

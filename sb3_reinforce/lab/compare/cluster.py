@@ -28,7 +28,7 @@ import signal
 import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -350,7 +350,7 @@ def run_jobs(
     futures = {
         client.submit(
             _execute,
-            job,
+            replace(job, files={}),  # they travel in its Variable (not twice, nor in the task graph)
             token,
             key=f"{job.name}-{token}",
             resources={CPU_RESOURCE: job.cpus},
