@@ -234,6 +234,22 @@ def test_tiny_compare_on_car_racing(tmp_path: Path) -> None:
     assert built.eval_env.observation_space.shape == (2, 64, 64)
 
 
+@pytest.mark.parametrize(("cores", "n_workers"), [(2, 1), (4, 2)])
+def test_default_workers_keep_subproc_runs_within_the_cores(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, cores: int, n_workers: int
+) -> None:
+    # Without --workers, as many runs go at once as the cores hold: a --vec-env subproc run of 2 envs keeps 2 busy
+    monkeypatch.setattr(os, "cpu_count", lambda: cores)
+    config = tmp_path / "r.yml"
+    config.write_text("CartPole-v1:\n  n_envs: 2\n  n_timesteps: 1000\n  policy: MlpPolicy\n")
+    out = tmp_path / "cmp"
+    args = ["--env", "CartPole-v1", "--algos", "reinforce", "--seeds", "2", "--budget", "1", "--eval-freq", "1000"]
+    args += ["--eval-episodes", "1", "--vec-env", "subproc", "--reinforce-config", str(config)]
+    main([*args, "--no-progress", "--out", str(out)])
+    workers = {json.loads(path.read_text())["worker"] for path in (out / PER_RUN_DIR).glob("*.json")}
+    assert len(workers) == n_workers, workers
+
+
 def test_tiny_compare_with_env_kwargs(tmp_path: Path) -> None:
     # Training with a longer time limit (env_kwargs), evaluation on the standard 200-step env, as the zoo does
     config = tmp_path / "r.yml"

@@ -223,8 +223,11 @@ def test_compare_on_envpool(tmp_path: Path, capsys: pytest.CaptureFixture[str]) 
 
 
 def test_a_compare_run_steps_envpool_on_one_thread(tmp_path: Path) -> None:
-    # A run has one core (one torch thread): its EnvPool gets one worker thread, not EnvPool's one per core
-    from sb3_reinforce.lab.compare.experiment import build_run
+    # A run has one core (one torch thread): its EnvPool gets one worker thread, not EnvPool's one per core, and on
+    # a cluster it asks for one CPU whatever its n_envs (a subproc run keeps n_envs busy)
+    from sb3_reinforce.lab.compare.experiment import build_run, run_cpus
+
+    assert run_cpus(4, "envpool") == run_cpus(4, "dummy") == 1 and run_cpus(4, "subproc") == 4
 
     for threads in (1, 0):
         kwargs = {} if threads == 1 else {"envpool_threads": 0}

@@ -85,9 +85,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--workers",
         type=int,
-        default=os.cpu_count() or 1,
+        default=None,
         help="parallel runs: the worker processes of the local cluster, >= 1; with --scheduler, the cluster's workers "
-        "decide (default: the CPU cores, %(default)s)",
+        f"decide (default: one per CPU core, {os.cpu_count() or 1} here; with --vec-env subproc, the cores divided by "
+        "the largest n_envs, as such a run keeps n_envs cores busy)",
     )
     parser.add_argument("--out", type=Path, default=None, help="output folder (default: runs/compare/<env>)")
     parser.add_argument(
@@ -151,7 +152,7 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None]:
             f"--first-seed must be from 0 to {MAX_SEED - args.seeds + 1:,} (the seeds run from 0 to {MAX_SEED:,}), "
             f"got {args.first_seed}"
         )
-    if args.workers < 1:
+    if args.workers is not None and args.workers < 1:
         raise ValueError(f"--workers must be >= 1, got {args.workers}")
     if args.eval_episodes < 1:
         raise ValueError(f"--eval-episodes must be >= 1, got {args.eval_episodes}")
@@ -265,7 +266,8 @@ def _run_all(todo: list[RunSpec], out_dir: Path, args: argparse.Namespace) -> di
     budgets = {spec.name: spec.budget for spec in todo}
     done_steps: dict[str, int] = {}
     most_cpus = max(job.cpus for job in jobs)
-    n_workers = max(1, min(args.workers, len(todo)))
+    workers = max(1, (os.cpu_count() or 1) // most_cpus) if args.workers is None else args.workers
+    n_workers = min(workers, len(todo))
     dashboard = "127.0.0.1:8787" if args.dashboard else None
     with (
         open_client(args.scheduler, n_workers, most_cpus, dashboard) as client,

@@ -65,14 +65,14 @@ def check_vec_env(vec_env: str, env_id: str) -> None:
 
 def run_cpus(n_envs: int, vec_env: str) -> int:
     """
-    The CPUs a run keeps busy: one per training environment when each steps in its own process or EnvPool thread,
-    else one.
+    The CPUs a run keeps busy: one per training environment when each steps in its own process (``subproc``), else
+    one (``dummy``; ``envpool``, whose one worker thread steps while the run waits, see :func:`build_run`).
 
     :param n_envs: The run's training environments
     :param vec_env: How they are stepped, one of :data:`VEC_ENV_TYPES`
     :return: The CPUs (the worker resource the run asks for)
     """
-    return n_envs if vec_env in ("subproc", ENVPOOL) else 1
+    return n_envs if vec_env == "subproc" else 1
 
 
 def known_algos() -> list[str]:
