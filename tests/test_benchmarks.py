@@ -200,6 +200,18 @@ def test_carracing_tuning_scores_the_control_from_the_pilot() -> None:
     assert [round(score, 1) for score in seeds["score"]] == [488.2, 635.8]
 
 
+def test_carracing_initial_actions(tmp_path: Path) -> None:
+    # The tuning README's reading of c_gsde_squash: its untrained policy brakes at the middle of [0, 1], b's does not
+    out = tmp_path / "initial_actions.csv"
+    load("carracing_initial_actions").main(["--seed", "100", "--samples", "3", "--out", str(out)])
+    rows = {(row["config"], row["action"]): row for row in read_rows(out)}
+    assert len(rows) == 4 * 3
+    for action in ("gas", "brake"):
+        assert float(rows["c_gsde_squash", action]["deterministic"]) > 0.5
+        assert float(rows["c_gsde_squash", action]["sampled_above_0.1"]) == 1
+        assert float(rows["b_gsde", action]["deterministic"]) < 0.1
+
+
 def test_carracing_tuning_rule(tmp_path: Path) -> None:
     # The rule on made-up evaluations: lowest seed first, mean when the lowest are within 10, nothing while a run is short
     tuning = load("carracing_tuning")
