@@ -3,6 +3,7 @@
 import csv
 import importlib.util
 import math
+import subprocess
 import sys
 from pathlib import Path
 from types import ModuleType
@@ -298,3 +299,21 @@ def test_only_unfinished_runs_keep_a_checkpoint() -> None:
         assert path.name.endswith((".checkpoint.zip", ".checkpoint_vecnormalize.pkl")), f"{path}: not a checkpoint"
         run = path.name.split(".checkpoint")[0]
         assert not (path.parent / f"{run}.json").exists(), f"{path}: its run is finished, remove the checkpoint"
+
+
+def test_shell_scripts_parse() -> None:
+    # The run scripts are the commands the results folders cite; one that bash cannot parse fails only when someone
+    # runs it, hours into a study (verify_carracing_tuned/run.sh did: an apostrophe inside ${2:?...})
+    scripts = sorted(BENCHMARKS.rglob("*.sh"))
+    assert scripts
+    for script in scripts:
+        result = subprocess.run(["bash", "-n", str(script)], capture_output=True, text=True)
+        assert result.returncode == 0, f"{script}: {result.stderr}"
+
+
+def test_verify_carracing_tuned_asks_for_the_pick() -> None:
+    # `run.sh reinforce` without the tuning study's pick stops with its usage line before anything runs
+    script = BENCHMARKS / "results" / "verify_carracing_tuned" / "run.sh"
+    result = subprocess.run(["bash", str(script), "reinforce"], capture_output=True, text=True)
+    assert result.returncode != 0
+    assert "usage: run.sh reinforce CONFIG" in result.stderr
