@@ -284,6 +284,9 @@ def test_tiny_compare_with_env_kwargs(tmp_path: Path) -> None:
         (["--eval-freq", "0"], "--eval-freq must be >= 1"),
         (["--threshold", "high"], "--threshold must be a number"),
         (["--budget", "lots"], "--budget must be"),
+        (["--device", "gpu"], "device must be cpu, cuda, cuda:N, mps or auto (a PyTorch device), got 'gpu'"),
+        (["--device", "xla"], "device must be cpu, cuda, cuda:N, mps or auto"),
+        (["--device", "cuda:99"], "device 'cuda:99': PyTorch"),  # a GPU this machine lacks, whatever it has
         (
             ["--env", "MountainCarContinuous-v0", "--algos", "reinforce"],
             "has no entry for MountainCarContinuous-v0 (it has: Acrobot-v1, ",  # the list: tests/test_zoo.py
@@ -495,7 +498,7 @@ def test_help_names_the_command_and_every_default(
                 assert f"{action.default})" in help_text or f"{action.default}," in help_text, help_text
 
 
-@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM", "SIGTERM, again while stopping"])
 def test_stopping_seed_stops_its_workers(tmp_path: Path, sig: str) -> None:
     # As compare: the workers do not outlive the command, which says so in one line and exits 130.
     import sys
@@ -526,12 +529,18 @@ def test_update_readme_markers(tmp_path: Path) -> None:
     assert readme.read_text() == "a\n<!-- results:x/y -->\n| new |\n<!-- /results:x/y -->\nb\n"
 
 
-@pytest.mark.parametrize("vec_env", ["dummy", "subproc"])
-@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM", "SIGTERM to the group"])
+@pytest.mark.parametrize(
+    "vec_env, sig",
+    [
+        *((vec_env, sig) for vec_env in ("dummy", "subproc") for sig in ("SIGINT", "SIGTERM", "SIGTERM to the group")),
+        ("dummy", "SIGTERM, again while stopping"),
+    ],
+)
 def test_stopping_compare_stops_its_workers(tmp_path: Path, sig: str, vec_env: str) -> None:
-    # Ctrl-C (SIGINT to the process group), `kill PID` (SIGTERM to the main process only) or SIGTERM to the whole
-    # process group: the workers, and the environment processes of --vec-env subproc, must not outlive the command,
-    # and the command exits as interrupted (130).
+    # Ctrl-C (SIGINT to the process group), `kill PID` (SIGTERM to the main process only), SIGTERM to the whole
+    # process group, or SIGTERM repeated while the command stops (GNU timeout signals the command, then its group):
+    # the workers, and the environment processes of --vec-env subproc, must not outlive the command, and the command
+    # exits as interrupted (130).
     import sys
 
     cmd = [sys.executable, "-m", "sb3_reinforce.lab.compare", "--env", "CartPole-v1", "--algos", "reinforce"]
@@ -545,8 +554,8 @@ def test_stopping_compare_stops_its_workers(tmp_path: Path, sig: str, vec_env: s
 def stop_and_check_workers(cmd: list[str], sig: str, training: "Callable[[], bool]") -> str:
     """
     Start ``cmd``, wait until ``training()``, send ``sig`` (SIGINT to the process group as Ctrl-C does, SIGTERM to
-    the main process as ``kill PID``, or "SIGTERM to the group" as ``kill -- -PGID``), check it exits 130 and leaves
-    no worker running; return its output.
+    the main process as ``kill PID``, "SIGTERM to the group" as ``kill -- -PGID``, or "SIGTERM, again while
+    stopping": every 0.1 s for 2 s), check it exits 130 and leaves no worker running; return its output.
     """
     import signal
     import subprocess
@@ -579,6 +588,10 @@ def stop_and_check_workers(cmd: list[str], sig: str, training: "Callable[[], boo
             os.killpg(proc.pid, signal.SIGINT)
         elif sig == "SIGTERM to the group":  # `kill -- -PGID`, or a container being stopped
             os.killpg(proc.pid, signal.SIGTERM)
+        elif sig == "SIGTERM, again while stopping":
+            for _ in range(20):  # whenever the repeats land in the stopping, they change nothing
+                proc.send_signal(signal.SIGTERM)
+                time.sleep(0.1)
         else:
             proc.send_signal(signal.SIGTERM)
         output, _ = proc.communicate(timeout=60)

@@ -19,7 +19,7 @@ from sb3_reinforce.lab.compare import runner
 from sb3_reinforce.lab.compare.cli import write_outputs
 from sb3_reinforce.lab.compare.experiment import build_run
 from sb3_reinforce.lab.compare.report import PER_RUN_DIR, load_summaries
-from sb3_reinforce.lab.compare.runner import RESULT_COLUMNS, Checkpoint, RunSpec
+from sb3_reinforce.lab.compare.runner import RESULT_COLUMNS, Checkpoint, RunSpec, exploration_noise_to_policy_device
 
 
 class _Stop(Exception):
@@ -81,13 +81,13 @@ def test_a_run_may_resume_with_the_other_vec_env(tmp_path: Path) -> None:
     with pytest.raises(_Stop):
         runner.run(spec, tmp_path, progress=_stop_after(2))
     state = json.loads(state_path.read_text())
-    assert state.pop("vec_envs") == ["dummy"]
-    state_path.write_text(json.dumps(state))  # as a checkpoint written before the kind was recorded
+    assert state.pop("vec_envs") == ["dummy"] and state.pop("devices") == ["cpu"]
+    state_path.write_text(json.dumps(state))  # as a checkpoint written before the kind and device were recorded
     built: list[Any] = []
     original_build_run = runner.build_run
 
-    def spy(*args: Any) -> Any:
-        built.append(original_build_run(*args))
+    def spy(*args: Any, **kwargs: Any) -> Any:
+        built.append(original_build_run(*args, **kwargs))
         return built[-1]
 
     with pytest.MonkeyPatch.context() as patch, pytest.raises(_Stop):
@@ -100,6 +100,37 @@ def test_a_run_may_resume_with_the_other_vec_env(tmp_path: Path) -> None:
     summary = runner.run(spec, tmp_path)
     assert summary["vec_envs"] == ["dummy", "subproc", "dummy"] and len(summary["resumed_at_steps"]) == 2
     assert summary["steps"] >= 4000
+    assert summary["devices"] == ["cpu", "cpu", "cpu"]
+
+
+@pytest.mark.skipif(not th.cuda.is_available(), reason="needs a CUDA device")
+@pytest.mark.parametrize("env_id, algo", [("CartPole-v1", "reinforce"), ("CartPole-v1", "ppo"), ("Pendulum-v1", "ppo")])
+def test_a_run_may_resume_on_another_device(tmp_path: Path, env_id: str, algo: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    # --device is where the networks compute, not what the run is: a run started on the GPU goes on on the CPU from
+    # its checkpoint (and back), and its summary says which part ran where. PPO's Pendulum-v1 entry uses gSDE, whose
+    # exploration matrix SB3 leaves on the CPU until the first rollout: the evaluation before it must still run.
+    monkeypatch.delenv("CUDA_VISIBLE_DEVICES", raising=False)  # conftest hides the GPU from every other test
+    spec = RunSpec(env_id, algo, 6, budget=3000, eval_freq=1000, n_eval_episodes=2)
+    state_path = tmp_path / PER_RUN_DIR / f"{spec.name}.checkpoint.json"
+    devices: list[th.device] = []
+    original_build_run = runner.build_run
+
+    def spy(*args: Any, **kwargs: Any) -> Any:
+        built = original_build_run(*args, **kwargs)
+        devices.append(built.model.device)
+        return built
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(runner, "build_run", spy)
+        with pytest.raises(_Stop):
+            runner.run(spec, tmp_path, progress=_stop_after(2), device="cuda")
+        assert json.loads(state_path.read_text())["devices"] == ["cuda"]
+        with pytest.raises(_Stop):
+            runner.run(spec, tmp_path, progress=_stop_after(2), device="cpu")
+        summary = runner.run(spec, tmp_path, device="cuda")
+    assert [device.type for device in devices] == ["cuda", "cpu", "cuda"]
+    assert summary["devices"] == ["cuda", "cpu", "cuda"] and len(summary["resumed_at_steps"]) == 2
+    assert summary["steps"] >= 3000
 
 
 BUSY_FOR_ONE_CPU_SECOND = "import time\nend = time.process_time() + 1.0\nwhile time.process_time() < end: pass\n"
@@ -207,3 +238,18 @@ def test_off_policy_runs_are_not_checkpointed(tmp_path: Path) -> None:
     assert _checkpoint_files(tmp_path / PER_RUN_DIR, spec) == []
     summary = runner.run(spec, tmp_path)
     assert "resumed_at_steps" not in summary and summary["steps"] >= 2000
+
+
+def test_exploration_noise_is_moved_not_drawn_again(tmp_path: Path) -> None:
+    # The gSDE matrices a run starts with are the ones drawn when its policy was built: putting them on the policy's
+    # device draws nothing (the same values, the random generators where they were)
+    built = build_run("ppo", "Pendulum-v1", 3, 2048, tmp_path)  # rl_zoo3's PPO entry for Pendulum-v1 uses gSDE
+    distribution = built.model.policy.action_dist
+    before = distribution.exploration_mat.clone(), distribution.exploration_matrices.clone()
+    rng = th.get_rng_state()
+    exploration_noise_to_policy_device(built.model)
+    assert th.equal(distribution.exploration_mat, before[0]) and th.equal(distribution.exploration_matrices, before[1])
+    assert distribution.exploration_mat.device == built.model.policy.device
+    assert th.equal(th.get_rng_state(), rng)
+    built.train_env.close()
+    built.eval_env.close()

@@ -16,7 +16,6 @@ comparison can be resumed after an interruption or extended with more seeds or a
 import argparse
 import json
 import os
-import signal
 import sys
 from pathlib import Path
 from typing import Any
@@ -25,10 +24,20 @@ import gymnasium as gym
 import pandas as pd
 from tqdm import tqdm
 
-from sb3_reinforce.lab.compare.cluster import ClusterError, Job, JobResult, RunChannel, check_workers, open_client, run_jobs
+from sb3_reinforce.lab.compare.cluster import (
+    ClusterError,
+    Job,
+    JobResult,
+    RunChannel,
+    check_workers,
+    open_client,
+    run_jobs,
+    sigterm_as_interrupt,
+)
 from sb3_reinforce.lab.compare.experiment import (
     DEFAULT_ALGOS,
     VEC_ENV_TYPES,
+    check_device,
     check_vec_env,
     known_algos,
     read_entry,
@@ -107,6 +116,14 @@ def build_parser() -> argparse.ArgumentParser:
         "part of a run's settings, so a run may resume with another (default: %(default)s)",
     )
     parser.add_argument(
+        "--device",
+        default="cpu",
+        help="where the runs' networks compute: cpu, cuda, cuda:N, mps or auto (SB3's: CUDA where there is one). "
+        "Every run of a comparison uses it; the CPU keeps the runs' timings comparable and their results "
+        "reproducible bit for bit, a GPU speeds up image policies (CnnPolicy, e.g. CarRacing-v3). Not part of a "
+        "run's settings: a run may resume on another device (default: %(default)s)",
+    )
+    parser.add_argument(
         "--scheduler",
         default=None,
         help="run on the Dask cluster of this scheduler, tcp://HOST:PORT or tls://HOST:PORT (TLS files from Dask's "
@@ -140,6 +157,7 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None]:
     except gym.error.Error as error:
         raise ValueError(f"Unknown environment {args.env!r}: {error}") from None
     check_vec_env(args.vec_env, args.env)
+    check_device(args.device, here=args.scheduler is None)
     algos = list(dict.fromkeys(algo.strip().lower() for algo in args.algos.split(",") if algo.strip()))
     known = known_algos()
     unknown = [algo for algo in algos if algo not in known]
@@ -206,9 +224,9 @@ def runs_to_do(specs: list[RunSpec], out_dir: Path) -> list[RunSpec]:
     return todo
 
 
-def _train(channel: RunChannel, spec: RunSpec, vec_env: str) -> dict[str, Any]:
+def _train(channel: RunChannel, spec: RunSpec, vec_env: str, device: str = "cpu") -> dict[str, Any]:
     """On a worker: train ``spec`` in the run's folder there, sending its files back after each evaluation."""
-    return run(spec, channel.folder, progress=channel.send, vec_env=vec_env, heartbeat=channel.check_stop)
+    return run(spec, channel.folder, progress=channel.send, vec_env=vec_env, heartbeat=channel.check_stop, device=device)
 
 
 def _write_files(out_dir: Path, files: dict[str, bytes]) -> None:
@@ -256,7 +274,7 @@ def _run_all(todo: list[RunSpec], out_dir: Path, args: argparse.Namespace) -> di
         Job(
             spec.name,
             _train,
-            (spec, args.vec_env),
+            (spec, args.vec_env, args.device),
             run_cpus(n_envs[spec.algo, spec.config_path], args.vec_env),
             f"{PER_RUN_DIR}/{spec.name}.*",
             _run_files(out_dir, spec),
@@ -351,18 +369,15 @@ def main(argv: list[str] | None = None) -> None:
         print(f"  {algo}: {spec.budget:,} steps, evaluation every {spec.eval_freq:,} steps x {spec.n_eval_episodes} episodes")
     interrupted = False
     failures: dict[str, str] = {}
-    # `kill PID` stops the command as Ctrl-C does: the runs stop, their checkpoints kept, the cluster closed
-    previous = signal.signal(signal.SIGTERM, signal.default_int_handler)
     try:
-        if todo:
-            failures = _run_all(todo, out_dir, args)
+        with sigterm_as_interrupt():  # `kill PID` stops the command as Ctrl-C does
+            if todo:
+                failures = _run_all(todo, out_dir, args)
     except KeyboardInterrupt:
         interrupted = True
     except ClusterError as error:
         print(f"sb3-reinforce compare: error: {error}", file=sys.stderr)
         sys.exit(2)
-    finally:
-        signal.signal(signal.SIGTERM, previous)
     if write_outputs(out_dir, args.env, threshold) is not None:
         # the terminal's table: summary.md's figures without the IQRs, to fit about 110 columns
         compact = summary_table(pd.read_csv(out_dir / "results.csv"), load_summaries(out_dir), threshold, compact=True)

@@ -44,6 +44,7 @@ __all__ = [
     "RunStopped",
     "open_client",
     "run_jobs",
+    "sigterm_as_interrupt",
     "worker_versions",
 ]
 
@@ -80,6 +81,31 @@ class IgnoreInterrupt(WorkerPlugin):
         :param worker: The worker
         """
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _interrupt_once(signum: int, frame: object) -> None:
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def sigterm_as_interrupt() -> Iterator[None]:
+    """
+    Inside, ``kill PID`` (SIGTERM) stops the command as Ctrl-C does: a ``KeyboardInterrupt`` that stops the runs,
+    their last files kept, and closes the cluster. Its repeats are ignored from then on, until the command has
+    exited (GNU ``timeout`` signals the command and then its process group): one landing in the cluster's shutdown
+    would cut it short, or end the command by the signal instead of its exit status.
+    """
+    previous = signal.signal(signal.SIGTERM, _interrupt_once)
+    stopping = False
+    try:
+        yield
+    except KeyboardInterrupt:
+        stopping = True
+        raise
+    finally:
+        if not stopping:
+            signal.signal(signal.SIGTERM, previous)
 
 
 #: The variable Dask's nanny sets to 65536 in the worker processes it starts (``distributed.nanny.pre-spawn-environ``).

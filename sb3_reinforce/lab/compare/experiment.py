@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import torch as th
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
@@ -31,6 +32,7 @@ __all__ = [
     "BuiltRun",
     "ZooEntry",
     "build_run",
+    "check_device",
     "check_vec_env",
     "known_algos",
     "read_entry",
@@ -63,6 +65,34 @@ def check_vec_env(vec_env: str, env_id: str) -> None:
         check_envpool_env(env_id)
 
 
+def check_device(device: str, here: bool = True) -> None:
+    """
+    Check, before anything is built, that ``device`` names a PyTorch device (``"cpu"``, ``"cuda"``, ``"cuda:N"``,
+    ``"mps"``, or SB3's ``"auto"``: CUDA where there is one) and, with ``here``, that this machine has it.
+
+    :param device: Where the runs' networks compute
+    :param here: Whether the runs train on this machine (a local cluster); with a remote scheduler the workers'
+        machines decide
+    :raises ValueError: a name PyTorch does not know, or a GPU this machine lacks
+    """
+    if device == "auto":
+        return
+    try:
+        parsed = th.device(device)
+    except RuntimeError:
+        raise ValueError(f"device must be cpu, cuda, cuda:N, mps or auto (a PyTorch device), got {device!r}") from None
+    if not here or parsed.type == "cpu":
+        return
+    if parsed.type == "cuda":
+        count = th.cuda.device_count()
+        if count == 0 or (parsed.index or 0) >= count:
+            raise ValueError(f"device {device!r}: PyTorch {th.__version__} sees {count} CUDA device(s) here")
+    elif parsed.type == "mps" and not th.backends.mps.is_available():
+        raise ValueError(f"device {device!r}: PyTorch {th.__version__} has no MPS device here")
+    elif parsed.type not in ("cuda", "mps"):
+        raise ValueError(f"device must be cpu, cuda, cuda:N, mps or auto (a PyTorch device), got {device!r}")
+
+
 def run_cpus(n_envs: int, vec_env: str) -> int:
     """
     The CPUs a run keeps busy: one per training environment when each steps in its own process (``subproc``), else
@@ -93,7 +123,14 @@ def _quiet() -> Iterator[None]:
 
 
 def _manager(
-    algo: str, env_id: str, seed: int, budget: int, log_folder: str, config: Path | None, vec_env: str = "dummy"
+    algo: str,
+    env_id: str,
+    seed: int,
+    budget: int,
+    log_folder: str,
+    config: Path | None,
+    vec_env: str = "dummy",
+    device: str = "cpu",
 ) -> Any:
     from sb3_reinforce.lab.zoo.exp_manager import ReinforceExperimentManager
 
@@ -108,7 +145,7 @@ def _manager(
         eval_freq=-1,  # the comparison evaluates with its own callback
         seed=seed,
         verbose=0,
-        device="cpu",
+        device=device,
         config=None if config is None else str(config),
         vec_env_type=vec_env,
     )
@@ -183,6 +220,7 @@ def build_run(
     config: Path | None = None,
     vec_env: str = "dummy",
     envpool_threads: int = 1,
+    device: str = "cpu",
 ) -> BuiltRun:
     """
     Build one run through the zoo's experiment manager, as ``sb3-reinforce-zoo train --algo ALGO --env ENV
@@ -200,10 +238,12 @@ def build_run(
     :param envpool_threads: EnvPool's worker threads, with ``vec_env="envpool"``: 1 by default, as a run has one
         core (one torch thread too, see :func:`~sb3_reinforce.lab.compare.runner.run`); 0 for EnvPool's default,
         a thread per core, whose idle threads spin while the policy computes
+    :param device: Where the model's networks compute (PyTorch's device: ``"cpu"``, ``"cuda"``, ``"cuda:1"``,
+        ``"auto"``), see :func:`check_device`
     :return: The run, ready to ``model.learn``
     """
     check_vec_env(vec_env, env_id)
-    manager = _manager(algo, env_id, seed, budget, str(log_folder), config, vec_env)
+    manager = _manager(algo, env_id, seed, budget, str(log_folder), config, vec_env, device)
     manager.envpool_threads = envpool_threads
     with _quiet():
         built = manager.setup_experiment()

@@ -39,6 +39,7 @@ import psutil
 import torch as th
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.distributions import StateDependentNoiseDistribution
 from stable_baselines3.common.evaluation import evaluate_policy
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecEnv, sync_envs_normalization
@@ -260,6 +261,7 @@ class Checkpoint:
     :param vec_env: The kind of vectorized training environment of this process (``"dummy"`` or ``"subproc"``)
     :param cpu_at_start: :func:`process_tree_cpu_s` when the run started in this process (a worker process runs
         one run after another: only the CPU seconds since count)
+    :param device: Where the model computes in this process (PyTorch's device name, as given)
     """
 
     def __init__(
@@ -269,11 +271,13 @@ class Checkpoint:
         hyperparams: dict[str, str],
         vec_env: str = "dummy",
         cpu_at_start: float = 0.0,
+        device: str = "cpu",
     ) -> None:
         self.cpu_at_start = cpu_at_start
         self.spec = spec
         self.hyperparams = hyperparams
         self.vec_envs = [vec_env]
+        self.devices = [device]
         self.model_path = runs_dir / f"{spec.name}.checkpoint.zip"
         self.vecnormalize_path = runs_dir / f"{spec.name}.checkpoint_vecnormalize.pkl"
         self.state_path = runs_dir / f"{spec.name}.checkpoint.json"
@@ -298,6 +302,7 @@ class Checkpoint:
             cpu_time_s=self.cpu_time_s(),
             resumed_at_steps=self.resumed_at_steps,
             vec_envs=self.vec_envs,
+            devices=self.devices,
         )
         _write_replacing(self.state_path, json.dumps(state, indent=2).encode())
 
@@ -347,6 +352,8 @@ class Checkpoint:
         # Checkpoints written before the kind was recorded were all made with DummyVecEnv
         earlier = state.get("vec_envs", ["dummy"] * (1 + len(state["resumed_at_steps"])))
         self.vec_envs = [*earlier, self.vec_envs[-1]]
+        # Checkpoints written before the device was recorded all trained on the CPU
+        self.devices = [*state.get("devices", ["cpu"] * len(earlier)), self.devices[-1]]
         return restored
 
     def delete(self) -> None:
@@ -396,12 +403,32 @@ def code_version() -> dict[str, Any]:
     return {"sb3_reinforce": __version__, "git_commit": commit, "git_dirty": None if status is None else status != ""}
 
 
+def exploration_noise_to_policy_device(model: BaseAlgorithm) -> None:
+    """
+    Put gSDE's exploration matrices where the policy computes, with the values they have (nothing is drawn).
+
+    SB3 draws them when the policy is built, on the CPU, as plain attributes that ``policy.to(device)`` leaves
+    behind; the first rollout draws them again on the policy's device. A comparison evaluates the sampled-action
+    policy before that rollout, which on a GPU would multiply tensors of two devices.
+
+    :param model: A built or loaded model (anything without gSDE is left as it is)
+    """
+    distribution = getattr(model.policy, "action_dist", None)
+    if not isinstance(distribution, StateDependentNoiseDistribution):
+        return
+    for name in ("exploration_mat", "exploration_matrices"):
+        matrix = getattr(distribution, name, None)
+        if isinstance(matrix, th.Tensor):
+            setattr(distribution, name, matrix.to(model.policy.device))
+
+
 def run(
     spec: RunSpec,
     out_dir: Path,
     progress: Any = None,
     vec_env: str = "dummy",
     heartbeat: Callable[[], None] | None = None,
+    device: str = "cpu",
 ) -> dict[str, Any]:
     """
     Train and evaluate one run; write ``out_dir/per_run/<algo>_seed<seed>.csv`` (one row per evaluation,
@@ -416,6 +443,9 @@ def run(
         (one process each); not part of the run's settings (a run may resume with the other)
     :param heartbeat: Called at every training step (or None); it may raise to stop the run, whose last
         checkpoint stays
+    :param device: Where the model's networks compute (PyTorch's device, ``"cpu"`` by default); not part of the
+        run's settings either (a run may resume on another). Only the CPU's random generators are checkpointed: a
+        run on a GPU, or resumed on another device, is not bit for bit the run it would have been
     :return: The summary written to the JSON file
     """
     cpu_at_start = process_tree_cpu_s()
@@ -427,12 +457,14 @@ def run(
 
     with tempfile.TemporaryDirectory(prefix=f"{spec.name}-zoo-") as zoo_folder:
         config = None if spec.config_path is None else Path(spec.config_path)
-        built = build_run(spec.algo, spec.env_id, spec.seed, spec.budget, Path(zoo_folder), config, vec_env)
+        built = build_run(spec.algo, spec.env_id, spec.seed, spec.budget, Path(zoo_folder), config, vec_env, device=device)
         model, eval_env = built.model, built.eval_env
         hyperparams = {key: str(value) for key, value in built.entry.hyperparams.items()}
         # Off-policy runs are not checkpointed: model.save leaves their replay buffer out
         checkpoint = (
-            None if isinstance(model, OffPolicyAlgorithm) else Checkpoint(runs_dir, spec, hyperparams, vec_env, cpu_at_start)
+            None
+            if isinstance(model, OffPolicyAlgorithm)
+            else Checkpoint(runs_dir, spec, hyperparams, vec_env, cpu_at_start, device)
         )
         state = checkpoint.load_state() if checkpoint is not None and csv_path.exists() else None
         resumed = None
@@ -443,6 +475,7 @@ def run(
         else:
             with csv_path.open("w", newline="") as f:
                 csv.writer(f).writerow(RESULT_COLUMNS)
+        exploration_noise_to_policy_device(model)
         callback = ComparisonEvalCallback(spec, eval_env, csv_path, progress, checkpoint, resumed, heartbeat)
         # Resumed: the steps left, on the restored step count (the schedules go on from where they were)
         model.learn(
@@ -468,6 +501,7 @@ def run(
         # environment processes, plus those of the processes it resumes: what the run costs on idle cores
         cpu_time_s=round(process_tree_cpu_s() - cpu_at_start if checkpoint is None else checkpoint.cpu_time_s(), 1),
         vec_envs=[vec_env] if checkpoint is None else checkpoint.vec_envs,
+        devices=[device] if checkpoint is None else checkpoint.devices,
     )
     if checkpoint is not None and checkpoint.resumed_at_steps:
         summary["resumed_at_steps"] = checkpoint.resumed_at_steps

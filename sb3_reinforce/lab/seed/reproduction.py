@@ -28,7 +28,6 @@ import argparse
 import csv
 import json
 import os
-import signal
 import sys
 import time
 from collections.abc import Callable
@@ -280,7 +279,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> None:
     """Command line entry point (see the module docstring)."""
     # The compare extra's modules (Dask runs the seeds), imported before anything is written
-    from sb3_reinforce.lab.compare.cluster import Job, JobResult, open_client, run_jobs
+    from sb3_reinforce.lab.compare.cluster import Job, JobResult, open_client, run_jobs, sigterm_as_interrupt
     from sb3_reinforce.lab.seed.report import render_seed
 
     parser = build_parser()
@@ -314,10 +313,9 @@ def main(argv: list[str] | None = None) -> None:
         (args.out / f"episodes_{name}.stopped").unlink(missing_ok=True)  # a seed that stopped early before
         write(result.files)
 
-    # `kill PID` stops the command as Ctrl-C does: the seeds stop, the cluster is closed
-    previous = signal.signal(signal.SIGTERM, signal.default_int_handler)
     try:
-        with open_client(None, max(1, min(args.workers, len(jobs))), 1) as client:
+        # `kill PID` stops the command as Ctrl-C does: the seeds stop, the cluster is closed
+        with sigterm_as_interrupt(), open_client(None, max(1, min(args.workers, len(jobs))), 1) as client:
             failures = run_jobs(client, jobs, lambda name, steps, files: write(files), on_result)
     except KeyboardInterrupt:
         print(
@@ -325,8 +323,6 @@ def main(argv: list[str] | None = None) -> None:
             "(a seed that was not finished starts over)."
         )
         sys.exit(130)
-    finally:
-        signal.signal(signal.SIGTERM, previous)
     for name, reason in failures.items():
         print(f"{name} failed: {reason}")
     if failures:
