@@ -119,9 +119,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--device",
         default="cpu",
         help="where the runs' networks compute: cpu, cuda, cuda:N, mps or auto (SB3's: CUDA where there is one). "
-        "Every run of a comparison uses it; the CPU keeps the runs' timings comparable and their results "
-        "reproducible bit for bit, a GPU speeds up image policies (CnnPolicy, e.g. CarRacing-v3). Not part of a "
-        "run's settings: a run may resume on another device (default: %(default)s)",
+        "Every run of a comparison uses it; on the CPU the runs' timings stay comparable and their results "
+        "reproducible bit for bit. Not part of a run's settings: a run may resume on another device "
+        "(default: %(default)s)",
     )
     parser.add_argument(
         "--scheduler",
