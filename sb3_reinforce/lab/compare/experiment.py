@@ -73,24 +73,24 @@ def check_device(device: str, here: bool = True) -> None:
     :param device: Where the runs' networks compute
     :param here: Whether the runs train on this machine (a local cluster); with a remote scheduler the workers'
         machines decide
-    :raises ValueError: a name PyTorch does not know, or a GPU this machine lacks
+    :raises ValueError: another name (wherever the runs train), or a GPU this machine lacks
     """
     if device == "auto":
         return
     try:
-        parsed = th.device(device)
+        kind = th.device(device).type
     except RuntimeError:
-        raise ValueError(f"device must be cpu, cuda, cuda:N, mps or auto (a PyTorch device), got {device!r}") from None
-    if not here or parsed.type == "cpu":
-        return
-    if parsed.type == "cuda":
-        count = th.cuda.device_count()
-        if count == 0 or (parsed.index or 0) >= count:
-            raise ValueError(f"device {device!r}: PyTorch {th.__version__} sees {count} CUDA device(s) here")
-    elif parsed.type == "mps" and not th.backends.mps.is_available():
-        raise ValueError(f"device {device!r}: PyTorch {th.__version__} has no MPS device here")
-    elif parsed.type not in ("cuda", "mps"):
+        kind = None
+    if kind not in ("cpu", "cuda", "mps"):
         raise ValueError(f"device must be cpu, cuda, cuda:N, mps or auto (a PyTorch device), got {device!r}")
+    if not here:
+        return
+    if kind == "cuda":
+        count = th.cuda.device_count()
+        if (th.device(device).index or 0) >= count:
+            raise ValueError(f"device {device!r}: PyTorch {th.__version__} sees {count} CUDA device(s) here")
+    elif kind == "mps" and not th.backends.mps.is_available():
+        raise ValueError(f"device {device!r}: PyTorch {th.__version__} has no MPS device here")
 
 
 def run_cpus(n_envs: int, vec_env: str) -> int:
