@@ -78,16 +78,17 @@ def check_device(device: str, here: bool = True) -> None:
     if device == "auto":
         return
     try:
-        kind = th.device(device).type
+        parsed: th.device | None = th.device(device)
     except RuntimeError:
-        kind = None
-    if kind not in ("cpu", "cuda", "mps"):
+        parsed = None
+    kind = parsed.type if parsed is not None else None
+    if parsed is None or kind not in ("cpu", "cuda", "mps"):
         raise ValueError(f"device must be cpu, cuda, cuda:N, mps or auto (a PyTorch device), got {device!r}")
     if not here:
         return
     if kind == "cuda":
         count = th.cuda.device_count()
-        if (th.device(device).index or 0) >= count:
+        if (parsed.index or 0) >= count:
             raise ValueError(f"device {device!r}: PyTorch {th.__version__} sees {count} CUDA device(s) here")
     elif kind == "mps" and not th.backends.mps.is_available():
         raise ValueError(f"device {device!r}: PyTorch {th.__version__} has no MPS device here")
