@@ -81,16 +81,15 @@ def check_device(device: str, here: bool = True) -> None:
         parsed: th.device | None = th.device(device)
     except RuntimeError:
         parsed = None
-    kind = parsed.type if parsed is not None else None
-    if parsed is None or kind not in ("cpu", "cuda", "mps"):
+    if parsed is None or parsed.type not in ("cpu", "cuda", "mps"):
         raise ValueError(f"device must be cpu, cuda, cuda:N, mps or auto (a PyTorch device), got {device!r}")
     if not here:
         return
-    if kind == "cuda":
+    if parsed.type == "cuda":
         count = th.cuda.device_count()
         if (parsed.index or 0) >= count:
             raise ValueError(f"device {device!r}: PyTorch {th.__version__} sees {count} CUDA device(s) here")
-    elif kind == "mps" and not th.backends.mps.is_available():
+    elif parsed.type == "mps" and not th.backends.mps.is_available():
         raise ValueError(f"device {device!r}: PyTorch {th.__version__} has no MPS device here")
 
 
