@@ -2,10 +2,12 @@
 Per-run scores of comparison folders, as the pilots' READMEs and docs/results.md quote them: for each run, the
 first evaluation at or above the threshold (counted after training started, as ``sb3-reinforce report``), the
 mean of the last 5 evaluations (the pilots' tuning score), the final evaluation (deterministic and sampled
-actions), the best one, and how many evaluations from ``--from-steps`` on are at or above the threshold.
+actions), the best one, how many evaluations from ``--from-steps`` on are at or above the threshold, and with
+``--mean-at`` the mean of the deterministic evaluations at those steps (CarRacing's target reads 900k, 950k and 1M).
 
     python benchmarks/pilot_scores.py benchmarks/results/mountaincar_pilot/* --threshold -110
     python benchmarks/pilot_scores.py benchmarks/results/verify_acrobot --threshold -100
+    python benchmarks/pilot_scores.py benchmarks/results/verify_carracing --threshold 500 --mean-at 900000 950000 1000000
 
 A folder without ``results.csv`` (a study trial's) is read from its ``per_run/*.csv``. ``LABEL=FOLDER`` pools
 folders under one label, so that one config's seeds from a study trial and from a later run are scored together:
@@ -32,8 +34,14 @@ def read_results(folder: Path) -> pd.DataFrame:
     return pd.concat([pd.read_csv(path) for path in per_run], ignore_index=True)
 
 
-def run_scores(folder: Path, threshold: float, from_steps: int, label: str | None = None) -> pd.DataFrame:
-    """One row per (algorithm, seed) of a comparison folder; ``label`` names it (default: the folder's name)."""
+def run_scores(
+    folder: Path, threshold: float, from_steps: int, label: str | None = None, mean_at: tuple[int, ...] = ()
+) -> pd.DataFrame:
+    """
+    One row per (algorithm, seed) of a comparison folder; ``label`` names it (default: the folder's name). With
+    ``mean_at``, a column holds the mean of the deterministic evaluations at exactly those steps (the periodic ones,
+    not the final evaluation after the last rollout), NaN while one of them is missing.
+    """
     rows = []
     for (algo, seed), run in read_results(folder).groupby(["algo", "seed"], sort=False):
         run = run.sort_values("eval_index")
@@ -54,6 +62,10 @@ def run_scores(folder: Path, threshold: float, from_steps: int, label: str | Non
                 f"evals from {from_steps:,} >= threshold": f"{(late['mean_return'] >= threshold).sum()}/{len(late)}",
             }
         )
+        if mean_at:
+            at = run.set_index("steps")["mean_return"]
+            values = [at.get(steps, float("nan")) for steps in mean_at]
+            rows[-1]["mean at " + ", ".join(f"{steps:,}" for steps in mean_at)] = round(sum(values) / len(values), 1)
     return pd.DataFrame(rows)
 
 
@@ -62,9 +74,19 @@ def main() -> None:
     parser.add_argument("folders", nargs="+", help="comparison folders (results.csv or per_run/*.csv), PATH or LABEL=PATH")
     parser.add_argument("--threshold", type=float, required=True, help="the env's solve threshold")
     parser.add_argument("--from-steps", type=int, default=800_000, help="count late evaluations from here (default: 800,000)")
+    parser.add_argument(
+        "--mean-at",
+        type=int,
+        nargs="+",
+        default=[],
+        metavar="STEPS",
+        help="also the mean of the deterministic evaluations at these steps (e.g. 900000 950000 1000000)",
+    )
     args = parser.parse_args()
     labelled = [arg.split("=", 1) if "=" in arg else [None, arg] for arg in args.folders]
-    table = pd.concat([run_scores(Path(path), args.threshold, args.from_steps, label) for label, path in labelled])
+    table = pd.concat(
+        [run_scores(Path(path), args.threshold, args.from_steps, label, tuple(args.mean_at)) for label, path in labelled]
+    )
     with pd.option_context("display.width", 250, "display.max_columns", None, "display.max_rows", None):
         print(table.to_string(index=False))
         last5 = table.groupby(["folder", "algo"], sort=False)["last 5"].agg(["mean", "count"]).round(1)

@@ -185,6 +185,17 @@ def test_pilot_scores_of_committed_runs() -> None:
     assert list(scores["evals from 800,000 >= threshold"]) == ["6/6", "0/5"]
 
 
+def test_pilot_scores_mean_at_reads_the_periodic_evaluations() -> None:
+    # CarRacing's target figures (verify_carracing's README: 732.0, 416.6, 443.2) are the evaluations at 900k, 950k
+    # and 1M steps, not the final one after the last rollout (seed 4000: 816.7 at 1,000,792 steps)
+    scores = load("pilot_scores").run_scores(
+        BENCHMARKS / "results" / "verify_carracing", 500, 800_000, mean_at=(900_000, 950_000, 1_000_000)
+    )
+    assert list(scores["mean at 900,000, 950,000, 1,000,000"]) == [732.0, 416.6, 443.2]
+    short = load("pilot_scores").run_scores(BENCHMARKS / "results" / "verify_carracing", 500, 800_000, mean_at=(2_000_000,))
+    assert short["mean at 2,000,000"].isna().all()
+
+
 def test_pilot_scores_of_a_study_trial_folder() -> None:
     # A study trial keeps only per_run/*.csv; its seeds' last-5 means are the study's score (trial 7: 252.7)
     trial = BENCHMARKS / "results" / "study_lunarlander_1m" / "trials" / "007"
