@@ -16,6 +16,7 @@ import math
 from pathlib import Path
 
 import pandas as pd
+from pilot_scores import evaluations_at
 
 RESULTS = Path(__file__).parent / "results"
 STUDY = RESULTS / "carracing_tuning"
@@ -42,8 +43,7 @@ def seed_scores(config_folders: dict[str, list[Path]]) -> pd.DataFrame:
         for folder in folders:
             for path in sorted((folder / "per_run").glob("reinforce_seed*.csv")):
                 run = pd.read_csv(path)
-                at = run.set_index("steps")["mean_return"]
-                evaluations = [float(at[steps]) if steps in at.index else math.nan for steps in SCORED_STEPS]
+                evaluations = evaluations_at(run, SCORED_STEPS)
                 row = {"config": config, "seed": int(run["seed"].iloc[0]), "steps": int(run["steps"].max())}
                 row.update({f"{steps // 1000}k": value for steps, value in zip(SCORED_STEPS, evaluations, strict=True)})
                 row["score"] = sum(evaluations) / len(evaluations)  # NaN while one is missing

@@ -17,6 +17,7 @@ folders under one label, so that one config's seeds from a study trial and from 
 """
 
 import argparse
+import math
 from pathlib import Path
 
 import pandas as pd
@@ -34,13 +35,21 @@ def read_results(folder: Path) -> pd.DataFrame:
     return pd.concat([pd.read_csv(path) for path in per_run], ignore_index=True)
 
 
+def evaluations_at(run: pd.DataFrame, steps: tuple[int, ...]) -> list[float]:
+    """
+    A run's deterministic evaluations at exactly these steps (the periodic ones, not the final evaluation after the
+    last rollout), NaN for a step the run has not reached.
+    """
+    at = run.set_index("steps")["mean_return"]
+    return [float(at[step]) if step in at.index else math.nan for step in steps]
+
+
 def run_scores(
     folder: Path, threshold: float, from_steps: int, label: str | None = None, mean_at: tuple[int, ...] = ()
 ) -> pd.DataFrame:
     """
     One row per (algorithm, seed) of a comparison folder; ``label`` names it (default: the folder's name). With
-    ``mean_at``, a column holds the mean of the deterministic evaluations at exactly those steps (the periodic ones,
-    not the final evaluation after the last rollout), NaN while one of them is missing.
+    ``mean_at``, a column holds the mean of :func:`evaluations_at` those steps, NaN while one of them is missing.
     """
     rows = []
     for (algo, seed), run in read_results(folder).groupby(["algo", "seed"], sort=False):
@@ -63,8 +72,7 @@ def run_scores(
             }
         )
         if mean_at:
-            at = run.set_index("steps")["mean_return"]
-            values = [at.get(steps, float("nan")) for steps in mean_at]
+            values = evaluations_at(run, mean_at)
             rows[-1]["mean at " + ", ".join(f"{steps:,}" for steps in mean_at)] = round(sum(values) / len(values), 1)
     return pd.DataFrame(rows)
 
