@@ -325,19 +325,32 @@ def test_printed_table_fits_a_terminal(folder: Path) -> None:
 
 def test_budget_options() -> None:
     parser = build_parser()
-    specs, threshold = parse_specs(parser.parse_args([]))
+    specs, threshold, _ = parse_specs(parser.parse_args([]))
     assert threshold == 475.0
     assert {s.algo: s.budget for s in specs} == {"reinforce": 100_000, "ppo": 100_000, "a2c": 100_000}  # PPO's budget
     assert {s.eval_freq for s in specs} == {5_000} and len(specs) == 9
-    specs, _ = parse_specs(parser.parse_args(["--budget", "zoo", "--threshold", "400"]))
+    specs, _, _ = parse_specs(parser.parse_args(["--budget", "zoo", "--threshold", "400"]))
     assert {s.algo: s.budget for s in specs} == {"reinforce": 100_000, "ppo": 100_000, "a2c": 500_000}
-    specs, _ = parse_specs(parser.parse_args(["--budget", "2e4", "--algos", "ppo", "--seeds", "2", "--first-seed", "7"]))
+    specs, _, _ = parse_specs(parser.parse_args(["--budget", "2e4", "--algos", "ppo", "--seeds", "2", "--first-seed", "7"]))
     assert [(s.algo, s.seed, s.budget) for s in specs] == [("ppo", 7, 20_000), ("ppo", 8, 20_000)]
+
+
+def test_the_plan_names_a_fallback_entry(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # rl_zoo3 trains an env its file has no entry for with the file's `default` entry: A2C on CarRacing-v3 would
+    # be an MLP on the raw pixels, one env. The entry says so, and so does the plan compare prints.
+    _, _, entries = parse_specs(build_parser().parse_args(["--env", "CarRacing-v3", "--algos", "reinforce,a2c"]))
+    assert entries["a2c"].fallback == "default" and entries["a2c"].hyperparams["policy"] == "MlpPolicy"
+    assert entries["reinforce"].fallback is None and entries["reinforce"].hyperparams["policy"] == "CnnPolicy"
+    args = ["--env", "FrozenLake-v1", "--algos", "a2c", "--seeds", "1", "--budget", "50", "--eval-freq", "50"]
+    main([*args, "--eval-episodes", "1", "--workers", "1", "--no-progress", "--out", str(tmp_path)])
+    out = capsys.readouterr().out
+    assert "a2c.yml has no entry for FrozenLake-v1: rl_zoo3's 'default' entry is used (MlpPolicy, 1 env(s))" in out
+    assert (tmp_path / "results.csv").exists()
 
 
 def test_any_zoo_algorithm_beside_reinforce(tmp_path: Path) -> None:
     # TRPO (sb3-contrib) with the installed zoo's entry, through the same path as REINFORCE, PPO and A2C
-    specs, _ = parse_specs(build_parser().parse_args(["--algos", "reinforce,ppo,a2c,trpo", "--seeds", "1"]))
+    specs, _, _ = parse_specs(build_parser().parse_args(["--algos", "reinforce,ppo,a2c,trpo", "--seeds", "1"]))
     assert [s.algo for s in specs] == ["reinforce", "ppo", "a2c", "trpo"] and {s.budget for s in specs} == {100_000}
     built = build_run("trpo", "CartPole-v1", 0, 1000, tmp_path)
     assert type(built.model).__name__ == "TRPO" and built.model.n_envs == built.entry.n_envs

@@ -37,6 +37,7 @@ from sb3_reinforce.lab.compare.cluster import (
 from sb3_reinforce.lab.compare.experiment import (
     DEFAULT_ALGOS,
     VEC_ENV_TYPES,
+    ZooEntry,
     check_device,
     check_vec_env,
     known_algos,
@@ -144,12 +145,12 @@ def _parse_threshold(text: str | None, env_id: str) -> float | None:
         raise ValueError(f"--threshold must be a number, got {text!r}") from None
 
 
-def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None]:
+def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None, dict[str, ZooEntry]]:
     """
     Check the arguments and load every algorithm's hyperparameters, before anything is trained.
 
     :param args: The parsed command line
-    :return: The runs (finished or not) and the solve threshold
+    :return: The runs (finished or not), the solve threshold and each algorithm's zoo entry
     :raises ValueError: on any bad input, with a message saying what to change
     """
     try:
@@ -207,7 +208,7 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None]:
         for seed in range(args.first_seed, args.first_seed + args.seeds)
         for algo in algos
     ]
-    return specs, threshold
+    return specs, threshold, configs
 
 
 def runs_to_do(specs: list[RunSpec], out_dir: Path) -> list[RunSpec]:
@@ -352,7 +353,7 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     out_dir: Path = args.out or Path("runs") / "compare" / args.env
     try:
-        specs, threshold = parse_specs(args)
+        specs, threshold, entries = parse_specs(args)
         todo = runs_to_do(specs, out_dir)
     except ValueError as error:  # one line (the usage would hide it): what to change
         print(f"{parser.prog}: error: {error}", file=sys.stderr)
@@ -367,6 +368,12 @@ def main(argv: list[str] | None = None) -> None:
     for algo in dict.fromkeys(spec.algo for spec in specs):
         spec = next(s for s in specs if s.algo == algo)
         print(f"  {algo}: {spec.budget:,} steps, evaluation every {spec.eval_freq:,} steps x {spec.n_eval_episodes} episodes")
+        if entries[algo].fallback is not None:
+            print(
+                f"    {entries[algo].source.name} has no entry for {args.env}: rl_zoo3's {entries[algo].fallback!r} "
+                f"entry is used ({entries[algo].hyperparams.get('policy')}, {entries[algo].n_envs} env(s)), "
+                "not tuned for this environment"
+            )
     interrupted = False
     failures: dict[str, str] = {}
     try:

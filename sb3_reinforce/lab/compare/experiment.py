@@ -162,6 +162,8 @@ class ZooEntry:
     :param n_envs: Number of training environments
     :param n_timesteps: The entry's training budget
     :param hyperparams: The entry as written in the file (for the record)
+    :param fallback: ``None`` when the file has an entry for ``env_id``; else the one rl_zoo3 took in its place,
+        ``"default"`` (or ``"atari"`` for an Atari env): settings not tuned for this environment
     """
 
     algo: str
@@ -170,6 +172,7 @@ class ZooEntry:
     n_envs: int
     n_timesteps: int
     hyperparams: dict[str, Any] = field(default_factory=dict)
+    fallback: str | None = None
 
 
 def read_entry(algo: str, env_id: str, config: Path | None = None, vec_env: str = "dummy") -> ZooEntry:
@@ -197,7 +200,13 @@ def read_entry(algo: str, env_id: str, config: Path | None = None, vec_env: str 
         except ValueError as error:  # rl_zoo3's own "Hyperparameters not found for ..."
             raise ValueError(str(error).splitlines()[0]) from None
         manager._preprocess_hyperparams(hyperparams)
-    return ZooEntry(algo, env_id, Path(manager.config), int(manager.n_envs), int(manager.n_timesteps), dict(saved))
+    return _entry(manager, algo, env_id, saved)
+
+
+def _entry(manager: Any, algo: str, env_id: str, saved: dict[str, Any]) -> ZooEntry:
+    """The :class:`ZooEntry` a manager has read (``saved``: the entry as the zoo saves it)."""
+    source = Path(manager.config)
+    return ZooEntry(algo, env_id, source, int(manager.n_envs), int(manager.n_timesteps), dict(saved), manager.entry_key)
 
 
 @dataclass
@@ -255,7 +264,7 @@ def build_run(
             eval_env = manager.create_envs(1, eval_env=True)
         finally:
             manager.seed = seed
-    entry = ZooEntry(algo, env_id, Path(manager.config), int(manager.n_envs), int(manager.n_timesteps), dict(saved))
+    entry = _entry(manager, algo, env_id, saved)
     train_env = model.get_env()
     assert train_env is not None
     return BuiltRun(model, train_env, eval_env, list(manager.callbacks), entry)

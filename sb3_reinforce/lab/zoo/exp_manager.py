@@ -132,6 +132,9 @@ class ReinforceExperimentManager(ExperimentManager):
     #: EnvPool's worker threads for the training environments (0: EnvPool's default, one per core;
     #: ``sb3-reinforce compare`` sets 1, as a run has one core there).
     envpool_threads: int = 0
+    #: The entry :meth:`read_hyperparameters` read: ``None`` for the env's own, or the fallback rl_zoo3 took in a
+    #: yml file without one (``"atari"`` or ``"default"``).
+    entry_key: str | None = None
 
     def __init__(self, args: Any, algo: str, *positional: Any, config: str | None = None, **kwargs: Any) -> None:
         if config is None and algo == ALGO_NAME:
@@ -174,6 +177,9 @@ class ReinforceExperimentManager(ExperimentManager):
                     f"{self.config} has no entry for {env_id} (it has: {', '.join(sorted(entries))}). "
                     f"Add one, or pass another file with {self.config_flag}."
                 )
+            # rl_zoo3's order: the env's own entry, else "atari" for an Atari env, else "default"
+            if env_id not in entries:
+                self.entry_key = "atari" if self._is_atari and "atari" in entries else "default"
         hyperparams, saved_hyperparams = super().read_hyperparameters()
         if self.trial_id == 0 and self.storage and self.study_name:
             # rl_zoo3 tests `if self.trial_id:`, which skips trial 0: load it here, -params still on top
