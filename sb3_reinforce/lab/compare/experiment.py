@@ -206,7 +206,7 @@ def read_entry(algo: str, env_id: str, config: Path | None = None, vec_env: str 
 def _entry(manager: Any, algo: str, env_id: str, saved: dict[str, Any]) -> ZooEntry:
     """The :class:`ZooEntry` a manager has read (``saved``: the entry as the zoo saves it)."""
     source = Path(manager.config)
-    return ZooEntry(algo, env_id, source, int(manager.n_envs), int(manager.n_timesteps), dict(saved), manager.entry_key)
+    return ZooEntry(algo, env_id, source, int(manager.n_envs), int(manager.n_timesteps), dict(saved), manager.fallback_entry)
 
 
 @dataclass

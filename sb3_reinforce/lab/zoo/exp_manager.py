@@ -134,7 +134,7 @@ class ReinforceExperimentManager(ExperimentManager):
     envpool_threads: int = 0
     #: The entry :meth:`read_hyperparameters` read: ``None`` for the env's own, or the fallback rl_zoo3 took in a
     #: yml file without one (``"atari"`` or ``"default"``).
-    entry_key: str | None = None
+    fallback_entry: str | None = None
 
     def __init__(self, args: Any, algo: str, *positional: Any, config: str | None = None, **kwargs: Any) -> None:
         if config is None and algo == ALGO_NAME:
@@ -179,7 +179,7 @@ class ReinforceExperimentManager(ExperimentManager):
                 )
             # rl_zoo3's order: the env's own entry, else "atari" for an Atari env, else "default"
             if env_id not in entries:
-                self.entry_key = "atari" if self._is_atari and "atari" in entries else "default"
+                self.fallback_entry = "atari" if self._is_atari and "atari" in entries else "default"
         hyperparams, saved_hyperparams = super().read_hyperparameters()
         if self.trial_id == 0 and self.storage and self.study_name:
             # rl_zoo3 tests `if self.trial_id:`, which skips trial 0: load it here, -params still on top
