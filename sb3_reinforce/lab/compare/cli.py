@@ -179,10 +179,10 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None, 
     config_paths = {algo: None for algo in algos}
     if args.reinforce_config is not None:
         config_paths["reinforce"] = args.reinforce_config
-    configs = {algo: read_entry(algo, args.env, config_paths[algo], args.vec_env) for algo in algos}
+    entries = {algo: read_entry(algo, args.env, config_paths[algo], args.vec_env) for algo in algos}
     if args.budget in ("ppo", "zoo"):
         ppo_budget = read_entry("ppo", args.env).n_timesteps if args.budget == "ppo" else 0
-        budgets = {algo: ppo_budget or configs[algo].n_timesteps for algo in algos}
+        budgets = {algo: ppo_budget or entries[algo].n_timesteps for algo in algos}
     else:
         try:
             budget = int(float(args.budget))
@@ -208,7 +208,7 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None, 
         for seed in range(args.first_seed, args.first_seed + args.seeds)
         for algo in algos
     ]
-    return specs, threshold, configs
+    return specs, threshold, entries
 
 
 def runs_to_do(specs: list[RunSpec], out_dir: Path) -> list[RunSpec]:
