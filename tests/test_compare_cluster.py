@@ -65,8 +65,13 @@ def _stop(process: subprocess.Popen) -> None:
 
 
 @contextlib.contextmanager
-def dask_cluster(folder: Path, tls_args: list[str] | None = None) -> Iterator[Cluster]:
-    """``dask scheduler`` on 127.0.0.1 and two ``dask worker`` processes (w1, w2), each in its own folder."""
+def dask_cluster(
+    folder: Path, tls_args: list[str] | None = None, worker_args: tuple[str, ...] = ("--nthreads", "1", "--resources", "CPU=1")
+) -> Iterator[Cluster]:
+    """
+    ``dask scheduler`` on 127.0.0.1 and two ``dask worker`` processes (w1, w2), each in its own folder, with
+    ``worker_args`` (default: one thread, lending one CPU).
+    """
     tls_args = tls_args or []
     scheduler_file = folder / "scheduler.json"
     (folder / "scheduler").mkdir()
@@ -92,16 +97,17 @@ def dask_cluster(folder: Path, tls_args: list[str] | None = None) -> Iterator[Cl
         worker_env = dict(_environment(), DASK_CONFIG=str(_guide_dask_config(folder)))
         for name in ("w1", "w2"):
             (folder / name).mkdir()
-            command = [DASK, "worker", address, "--host", "127.0.0.1", "--nworkers", "1", "--nthreads", "1"]
-            command += ["--name", name, "--resources", "CPU=1", *LOCAL_HTTP, "--local-directory", str(folder / name)]
-            workers[name] = subprocess.Popen(
-                [*command, *tls_args],
-                cwd=folder / name,
-                env=worker_env,
-                start_new_session=True,
-                stdout=subprocess.DEVNULL,
-                stderr=subprocess.DEVNULL,
-            )
+            command = [DASK, "worker", address, "--host", "127.0.0.1", "--nworkers", "1", *worker_args]
+            command += ["--name", name, *LOCAL_HTTP, "--local-directory", str(folder / name)]
+            with (folder / f"{name}.log").open("w") as log:  # the worker's log (Dask logs to stderr)
+                workers[name] = subprocess.Popen(
+                    [*command, *tls_args],
+                    cwd=folder / name,
+                    env=worker_env,
+                    start_new_session=True,
+                    stdout=subprocess.DEVNULL,
+                    stderr=log,
+                )
         yield Cluster(address, scheduler, workers, tls_args)
     finally:
         for process in [*workers.values(), scheduler]:
@@ -169,6 +175,30 @@ def test_compare_on_a_cluster_uses_both_workers(tmp_path: Path) -> None:
     # Each run's JSON names its worker: both ran at least one, in folders of their own (none is --out)
     assert {summary["worker"] for summary in summaries} == {"w1", "w2"}
     assert (out / "summary.md").exists() and (out / "learning_curve.png").exists()
+
+
+def test_workers_started_as_dask_documents_lend_their_threads(tmp_path: Path) -> None:
+    # `dask worker ADDRESS` without --resources (its default threads: one per core): each lends its threads as CPUs
+    with dask_cluster(tmp_path, worker_args=()) as cluster:
+        _wait_for_workers(cluster)
+        out = tmp_path / "out"
+        compare = _compare(out, cluster.address, "--algos", "reinforce", "--seeds", "2", "--budget", "2000")
+        output, _ = compare.communicate(timeout=600)
+        assert compare.returncode == 0, output
+        with Client(cluster.address, timeout=30, set_as_default=False) as client:
+            workers = client.scheduler_info(n_workers=-1)["workers"].values()
+            lent = {info["name"]: (info["resources"].get("CPU"), info["nthreads"]) for info in workers}
+        # Ctrl-C on a worker that has trained (SIGINT to its process group, as a terminal sends it): it stops
+        # cleanly, before its nanny's 8 s limit ("Worker process still alive after 8.0 seconds, killing")
+        stopped_at = time.monotonic()
+        os.killpg(cluster.workers["w1"].pid, signal.SIGINT)
+        cluster.workers["w1"].wait(timeout=60)
+        seconds = time.monotonic() - stopped_at
+        log = (tmp_path / "w1.log").read_text()
+    assert lent == {"w1": (os.cpu_count(), os.cpu_count()), "w2": (os.cpu_count(), os.cpu_count())}, lent
+    _check_every_row(out, ["reinforce_seed0", "reinforce_seed1"])
+    assert cluster.workers["w1"].returncode == 0 and seconds < 8, (seconds, log)
+    assert "killing" not in log and "Traceback" not in log, log
 
 
 def _worker_process(nanny: subprocess.Popen) -> psutil.Process:

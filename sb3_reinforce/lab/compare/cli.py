@@ -128,7 +128,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--scheduler",
         default=None,
         help="run on the Dask cluster of this scheduler, tcp://HOST:PORT or tls://HOST:PORT (TLS files from Dask's "
-        "configuration, distributed.comm.tls); its workers lend CPUs with --resources CPU=N "
+        "configuration, distributed.comm.tls); each worker lends its threads as CPUs, or N with --resources CPU=N "
         "(default: a local cluster on 127.0.0.1 of --workers processes, started and closed by the command)",
     )
     parser.add_argument("--dashboard", action="store_true", help="serve the local cluster's Dask dashboard on 127.0.0.1:8787")

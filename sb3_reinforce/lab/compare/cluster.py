@@ -9,9 +9,10 @@ through the scheduler as it goes (:meth:`RunChannel.send`, after each evaluation
 writes them into its output folder. A run that starts again (after a worker died, or in a command run again) gets
 the files last sent back (its checkpoint) before it starts, on whatever worker it lands.
 
-A run asks for the CPUs it keeps busy through the worker resource ``CPU``: a worker runs it only if it declares at
-least as many (``dask worker --resources CPU=N``; the local default gives each worker what the largest run needs,
-so that ``--workers`` alone says how many runs go at once, as it always did).
+A run asks for the CPUs it keeps busy through the worker resource ``CPU``: a worker runs it only if it lends at
+least as many. A worker started as Dask documents it (``dask worker ADDRESS``, no ``--resources``) lends its threads
+(:class:`LendThreadsAsCPUs`); ``dask worker --resources CPU=N`` lends N; the local default gives each worker what the
+largest run needs, so that ``--workers`` alone says how many runs go at once, as it always did.
 
 A worker that dies mid-run (killed, its machine lost) has its run started again on a worker still there, by the
 scheduler, up to its ``distributed.scheduler.allowed-failures`` times; a run whose code raises is retried
@@ -40,6 +41,7 @@ __all__ = [
     "RUN_RETRIES",
     "ClusterError",
     "Job",
+    "LendThreadsAsCPUs",
     "RunChannel",
     "RunStopped",
     "open_client",
@@ -70,8 +72,12 @@ class RunStopped(Exception):
 
 class IgnoreInterrupt(WorkerPlugin):
     """
-    A local worker process ignores SIGINT: Ctrl-C reaches the whole process group, and only the command handles it
-    (it stops the runs, then closes the cluster, which stops its workers).
+    A worker process started by a nanny ignores SIGINT: Ctrl-C reaches the whole process group, and only the process
+    that started it handles it. On the local cluster that is the command (it stops the runs, then closes the cluster,
+    which stops its workers); under ``dask worker`` it is the nanny, which closes its worker process at once. Without
+    this a worker process that gets the SIGINT too closes itself while its nanny closes it, and the nanny kills it
+    after 8 s ("Worker process still alive after 8.0 seconds, killing"; distributed 2026.8.0, with or without a run
+    having trained). A worker without a nanny (``--no-nanny``) keeps Dask's handling: Ctrl-C stops it.
     """
 
     def setup(self, worker: Worker) -> None:
@@ -80,7 +86,25 @@ class IgnoreInterrupt(WorkerPlugin):
 
         :param worker: The worker
         """
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        if worker.nanny is not None:
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+class LendThreadsAsCPUs(WorkerPlugin):
+    """
+    A worker that declares no ``CPU`` resource (``dask worker ADDRESS``, as Dask documents it) lends its threads as
+    CPUs: one run per thread at a time, as Dask runs one task per thread. A worker started with ``--resources
+    CPU=N`` keeps its N. Registered on the cluster by the command, it reaches the workers that join later too.
+    """
+
+    async def setup(self, worker: Worker) -> None:
+        """
+        Declare ``CPU`` = the worker's threads, where it declares no ``CPU`` of its own.
+
+        :param worker: The worker
+        """
+        if CPU_RESOURCE not in worker.state.total_resources:
+            await worker.set_resources(**{CPU_RESOURCE: worker.state.nthreads})
 
 
 def _interrupt_once(signum: int, frame: object) -> None:
@@ -219,11 +243,16 @@ def check_workers(client: Client, cpus: int, scheduler: str, subprocesses: bool 
                 f"worker {name} is a daemonic process and cannot start --vec-env subproc's environment "
                 "processes: start it with DASK_DISTRIBUTED__WORKER__DAEMON=False"
             )
+    # Every worker has the package by now: it can unpickle the plugins (which reach later workers too)
+    client.register_plugin(LendThreadsAsCPUs())
+    client.register_plugin(IgnoreInterrupt())
+    workers = client.scheduler_info(n_workers=-1)["workers"]
     most = max(float(info.get("resources", {}).get(CPU_RESOURCE, 0)) for info in workers.values())
     if most < cpus:
         raise ClusterError(
-            f"no worker of {scheduler} lends {cpus} CPU(s) (the most: {most:g}): start workers with "
-            f"`dask worker {scheduler} --nthreads 1 --resources {CPU_RESOURCE}={cpus}` or more"
+            f"no worker of {scheduler} lends {cpus} CPU(s) (the most: {most:g}): start a worker with "
+            f"`dask worker {scheduler} --nthreads {cpus}` (its threads are the CPUs it lends) or "
+            f"`--resources {CPU_RESOURCE}={cpus}`"
         )
     return [
         f"worker {workers.get(address, {}).get('name', address)} ({address}) runs with {MALLOC_TRIM}={value} "
