@@ -5,6 +5,7 @@ commands that use it, and the fidelity of every environment offered to Gymnasium
 
 import json
 import sys
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -153,6 +154,17 @@ def test_under_vec_normalize_and_vec_frame_stack() -> None:
             assert infos[i]["terminal_observation"].shape == (12,)  # stacked by VecFrameStack
             np.testing.assert_array_equal(obs[i, :8], 0.0)  # a new episode: the stack starts empty
     env.close()
+
+
+@pytest.mark.parametrize("env_id", ["CartPole-v1", "LunarLanderContinuous-v3"])
+def test_building_and_stepping_warn_nothing(env_id: str) -> None:
+    # EnvPool's spaces, built from float64 bounds, made Gymnasium warn four times into compare's progress bar
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)  # Gymnasium's warnings (not SWIG's DeprecationWarnings at import)
+        env = make_envpool_vec_env(env_id, n_envs=2, seed=0)
+        env.reset()
+        env.step(np.stack([env.action_space.sample() for _ in range(2)]))
+        env.close()
 
 
 def test_attributes_and_methods() -> None:

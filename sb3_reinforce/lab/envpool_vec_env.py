@@ -31,7 +31,8 @@ EnvPool's environments are C++ objects: ``env_method`` and ``set_attr`` raise ``
 import contextlib
 import os
 import time
-from collections.abc import Callable, Sequence
+import warnings
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 import gymnasium as gym
@@ -95,6 +96,18 @@ def check_envpool_env(env_id: str) -> None:
     check_envpool_installed()
     if env_id not in ENVPOOL_ENV_IDS:
         raise ValueError(f"{env_id} is not offered on EnvPool: choose among {', '.join(ENVPOOL_ENV_IDS)}")
+
+
+@contextlib.contextmanager
+def _quiet_float64_bounds() -> Iterator[None]:
+    """
+    Inside, Gymnasium does not warn of EnvPool's spaces: EnvPool 1.2 builds its float32 ``Box`` spaces from float64
+    bounds, and Gymnasium warns twice per space ("Box low's precision lowered by casting to float32"), which printed
+    into compare's progress bar. The adapter's spaces are Gymnasium's own environment's.
+    """
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=r".*precision lowered by casting to float32", category=UserWarning)
+        yield
 
 
 def _frame_skip_classes() -> tuple[type, ...]:
@@ -201,7 +214,8 @@ class EnvPoolVecEnv(VecEnv):
         import envpool
 
         spec = envpool.make_spec(self.env_id, **self.env_kwargs)
-        pool_observation, pool_action = spec.gymnasium_observation_space, spec.gymnasium_action_space
+        with _quiet_float64_bounds():
+            pool_observation, pool_action = spec.gymnasium_observation_space, spec.gymnasium_action_space
         if (pool_observation.shape, pool_observation.dtype) != (observation_space.shape, observation_space.dtype):
             raise ValueError(
                 f"{self.env_id}: EnvPool's observations {pool_observation} differ from Gymnasium's {observation_space}"
@@ -224,6 +238,8 @@ class EnvPoolVecEnv(VecEnv):
             env_seed=seeds,
             **self.env_kwargs,
         )
+        with _quiet_float64_bounds():  # the pool builds its spaces once, when first read (by its reset, say)
+            _ = self._pool.observation_space, self._pool.action_space
 
     def _transform(self, observation: np.ndarray) -> np.ndarray:
         """Apply the observation wrappers to one environment's observation."""
