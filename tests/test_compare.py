@@ -26,6 +26,7 @@ from sb3_reinforce.lab.compare.report import (
     overview_table,
     plot_learning_curves,
     plot_seed_curves,
+    published_table,
     seed_table,
     summary_table,
     to_markdown,
@@ -674,6 +675,42 @@ def test_overview_table_hand_computed(tmp_path: Path, capsys: pytest.CaptureFixt
     assert "summary updated" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         render_main([str(first), "--summary", str(tmp_path / "first" / "summary.md")])  # no markers there
+
+
+def test_published_table_hand_computed(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # REINFORCE on seeds 0-1 over 2,000 steps (evaluations at 0, 1,000 and 2,000): mean curve 1.5, 3.5, 2.5 (best 3.5, std 0.5 at the second point); its
+    # sampled-action curve is one lower everywhere (best 2.5)
+    folder = tmp_path / "run"
+    _fake_comparison(folder, "Hopper-v4", 3.0, {("reinforce", 0): [1, 3, 4], ("reinforce", 1): [2, 4, 1]})
+    published = pd.DataFrame(
+        [
+            dict(env_id="Hopper-v4", source="A", budget=2000, mean=2.0, std=0.5, approximate=False),
+            dict(env_id="Hopper-v4", source="B", budget=2000, mean=3.0, std=np.nan, approximate=True),
+            dict(env_id="Hopper-v4", source="A", budget=10000, mean=9.0, std=np.nan, approximate=False),
+            dict(env_id="Ant-v4", source="A", budget=2000, mean=1.0, std=0.1, approximate=False),
+        ]
+    )
+    table = published_table([folder], published)
+    hopper, ant = table.iloc[0], table.iloc[1]
+    assert (hopper["A, 2k"], hopper["B, 2k"], hopper["A, 10k"]) == ("2 ± 0.5", "~3", "9")
+    assert hopper["REINFORCE here"] == "3.5 ± 0.5 (2k)" and hopper["REINFORCE here, sampled actions"] == "2.5 ± 0.5"
+    # Judged by the lower figure (2.5): above A's 2, below B's 3; the 10k number is another budget
+    assert hopper["at or above the published"] == "below B (3)"
+    assert hopper["final IQM [95% CI]"].startswith("2.5 [") and hopper["seeds"] == "0, 1"
+    assert ant["REINFORCE here"] == "not run yet" and ant["A, 2k"] == "1 ± 0.1"
+    # A seed still running counts only at the points both have reached: seed 2 stops after the first point
+    _fake_comparison(tmp_path / "partial", "Hopper-v4", 3.0, {("reinforce", 0): [1, 3, 4], ("reinforce", 2): [5]})
+    assert published_table([tmp_path / "partial"], published).iloc[0]["REINFORCE here"].startswith("3.0 ± 2.0")
+    # The report command prints it and writes it between the published markers
+    csv_path, page = tmp_path / "published.csv", tmp_path / "page.md"
+    published.to_csv(csv_path, index=False)
+    page.write_text("a\n<!-- published -->\nold\n<!-- /published -->\nb\n")
+    render_main([str(folder), "--published", str(csv_path), "--published-into", str(page)])
+    assert page.read_text() == "a\n<!-- published -->\n" + to_markdown(table) + "<!-- /published -->\nb\n"
+    assert "published table updated" in capsys.readouterr().out
+    for bad in (["--published-into", str(page)], ["--published", str(tmp_path / "none.csv")]):
+        with pytest.raises(SystemExit):
+            render_main([str(folder), *bad])
 
 
 def test_seed_curves_of_seeds_stopped_early_are_drawn_one_per_seed(tmp_path: Path) -> None:

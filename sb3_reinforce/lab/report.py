@@ -1,8 +1,9 @@
 """
-``sb3-reinforce report DIR [DIR ...] [--readme README.md] [--summary FILE] [--figure PNG]``: rebuild the tables
-and plots of result folders from their raw files, print each markdown table, and optionally write them into a
-README between the markers ``<!-- results:DIR -->`` and ``<!-- /results:DIR -->``, the one-screen summary into a
-file, and the results-at-a-glance figure (a panel per env) into a PNG.
+``sb3-reinforce report DIR [DIR ...] [--readme README.md] [--summary FILE] [--figure PNG] [--published CSV
+[--published-into FILE]]``: rebuild the tables and plots of result folders from their raw files, print each markdown
+table, and optionally write them into a README between the markers ``<!-- results:DIR -->`` and
+``<!-- /results:DIR -->``, the one-screen summary into a file, the results-at-a-glance figure (a panel per env) into a
+PNG, and the table of published results beside this package's (between ``<!-- published -->`` markers).
 
 A folder with ``per_run/`` is a comparison (``sb3-reinforce compare``); a folder with ``episodes_seed*.csv`` is
 a seed reproduction (``sb3-reinforce seed``).
@@ -13,11 +14,14 @@ import json
 import re
 from pathlib import Path
 
+import pandas as pd
+
 from sb3_reinforce.lab.compare.cli import write_outputs
 from sb3_reinforce.lab.compare.report import (
     PER_RUN_DIR,
     overview_table,
     plot_overview,
+    published_table,
     to_markdown,
 )
 from sb3_reinforce.lab.seed.report import render_seed
@@ -100,6 +104,21 @@ def build_parser() -> argparse.ArgumentParser:
         "with its 95%% bootstrap CI, the threshold), the envs and algorithms of --summary (default: no figure)",
     )
     parser.add_argument(
+        "--published",
+        type=Path,
+        default=None,
+        help="also print the published results of this CSV (env_id, source, budget, mean, std; e.g. "
+        "benchmarks/published/reinforce_mujoco.csv) beside REINFORCE's in the comparison folders, by the published "
+        "metric: the best mean over seeds of the evaluation return (default: no such table)",
+    )
+    parser.add_argument(
+        "--published-into",
+        type=Path,
+        default=None,
+        help="with --published: also write that table into this markdown file, between <!-- published --> and "
+        "<!-- /published --> (default: no file is written)",
+    )
+    parser.add_argument(
         "--readme",
         type=Path,
         default=None,
@@ -133,6 +152,17 @@ def main(argv: list[str] | None = None) -> None:
         if not write_between_markers(args.summary, "summary", overview):
             parser.error(f"{args.summary} has no <!-- summary --> and <!-- /summary --> markers")
         print(f"{args.summary}: summary updated")
+    if args.published_into is not None and args.published is None:
+        parser.error("--published-into needs --published CSV")
+    if args.published is not None:
+        if not args.published.is_file():
+            parser.error(f"--published: no such file {args.published}")
+        published = to_markdown(published_table(comparisons, pd.read_csv(args.published)))
+        print(f"## Published results\n\n{published}")
+        if args.published_into is not None:
+            if not write_between_markers(args.published_into, "published", published):
+                parser.error(f"{args.published_into} has no <!-- published --> and <!-- /published --> markers")
+            print(f"{args.published_into}: published table updated")
     if args.readme is not None:
         updated = update_readme(args.readme, tables)
         missing = sorted(set(tables) - set(updated))

@@ -12,6 +12,7 @@ from scipy import stats
 
 __all__ = [
     "THRESHOLDS_WITHOUT_GYMNASIUM",
+    "best_mean_over_seeds",
     "bootstrap_ci",
     "first_crossing",
     "iqm",
@@ -147,3 +148,23 @@ def rolling_mean(values: Sequence[float] | np.ndarray, window: int) -> np.ndarra
     idx = np.arange(1, array.size + 1)
     start = np.maximum(0, idx - window)
     return (cumsum[idx] - cumsum[start]) / (idx - start)
+
+
+def best_mean_over_seeds(curves: Sequence[Sequence[float]] | np.ndarray) -> tuple[float, float, int]:
+    """
+    Tianshou's benchmark metric (thu-ml/tianshou, ``examples/mujoco``): at each evaluation point the mean over seeds
+    of the evaluation return, and the maximum of that over the points; reported with the standard deviation over
+    seeds at that point. Kinder than a final score: it reads the best point of the mean curve.
+
+    :param curves: One row per seed, one column per evaluation point (the same points for every seed)
+    :return: (the maximum of the mean curve, the standard deviation over seeds there, the index of that point;
+        the first such point on a tie)
+    """
+    array = np.asarray(curves, dtype=np.float64)
+    if array.ndim != 2 or array.size == 0:
+        raise ValueError(f"best_mean_over_seeds() needs a non-empty (seeds, points) array, got shape {array.shape}")
+    if not np.isfinite(array).all():
+        raise ValueError("best_mean_over_seeds() needs finite returns at every point of every seed")
+    mean_curve = array.mean(axis=0)
+    best = int(np.argmax(mean_curve))
+    return float(mean_curve[best]), float(array[:, best].std()), best

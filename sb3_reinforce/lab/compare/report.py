@@ -21,7 +21,14 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 from matplotlib.ticker import FuncFormatter
 
-from sb3_reinforce.lab.stats import bootstrap_ci, first_crossing, iqm, quantile_with_inf, rolling_mean
+from sb3_reinforce.lab.stats import (
+    best_mean_over_seeds,
+    bootstrap_ci,
+    first_crossing,
+    iqm,
+    quantile_with_inf,
+    rolling_mean,
+)
 
 #: Subfolder of a comparison's output folder with each run's evaluations (CSV) and summary (JSON).
 PER_RUN_DIR = "per_run"
@@ -34,6 +41,7 @@ __all__ = [
     "plot_learning_curves",
     "plot_overview",
     "plot_seed_curves",
+    "published_table",
     "seed_table",
     "summary_table",
     "to_markdown",
@@ -99,6 +107,20 @@ def _reach(trained: Sequence[pd.DataFrame], threshold: float) -> tuple[list[floa
 def _finals(per_seed: Sequence[pd.DataFrame], column: str) -> list[float]:
     """Each seed's last evaluation (its final score)."""
     return [float(df[column].iloc[-1]) for df in per_seed]
+
+
+def _aligned_curves(algo_df: pd.DataFrame, column: str) -> np.ndarray:
+    """
+    One algorithm's evaluations as ``(seeds, points)``: each seed's by evaluation index, only the points every seed
+    has reached (a run still going has fewer).
+    """
+    return algo_df.pivot_table(index="eval_index", columns="seed", values=column).dropna().to_numpy().T
+
+
+def _best_mean(algo_df: pd.DataFrame, column: str) -> str:
+    """Tianshou's metric (:func:`~sb3_reinforce.lab.stats.best_mean_over_seeds`) as ``best ± std``."""
+    best, std, _ = best_mean_over_seeds(_aligned_curves(algo_df, column))
+    return f"{best:.1f} ± {std:.1f}"
 
 
 def _seed_range(seeds: Sequence[int]) -> str:
@@ -169,6 +191,61 @@ def overview_table(folders: Sequence[Path]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def published_table(folders: Sequence[Path], published: pd.DataFrame, algo: str = "reinforce") -> pd.DataFrame:
+    """
+    Published results beside this package's, by the published metric: per environment, each published number (a
+    column per source and budget) and, from the first of ``folders`` that ran ``algo`` on it, the best mean over seeds
+    (:func:`~sb3_reinforce.lab.stats.best_mean_over_seeds`) of the deterministic and of the sampled-action
+    evaluations, the final IQM with its 95% bootstrap CI, the seeds, and whether both figures are at or above every
+    published number of the same budget (Tianshou evaluates sampled actions, this package's protocol deterministic
+    ones: a row meets a number only by both).
+
+    :param folders: Comparison output folders
+    :param published: One row per environment, source and budget: ``env_id``, ``source``, ``budget`` (steps),
+        ``mean`` (the published figure), ``std`` (its standard deviation over seeds, NaN where none is given) and
+        optionally ``approximate`` (True: read off a plot, shown as ``~``)
+    :param algo: The algorithm of the folders to read
+    :return: A table of strings, one row per environment of ``published`` in its order ("not run yet" where no
+        folder has it)
+    """
+    ours: dict[str, tuple[Path, pd.DataFrame]] = {}
+    for folder, env_id, _, run_algo, algo_df in _first_of_each(folders):
+        if run_algo == algo:
+            ours.setdefault(env_id, (folder, algo_df))
+    name = _ALGO_NAMES.get(algo, algo.upper())
+    rows = []
+    for env_id, env_rows in published.groupby("env_id", sort=False):
+        row: dict[str, str] = {"env": env_id}
+        for _, entry in env_rows.iterrows():
+            figure = ("~" if entry.get("approximate", False) else "") + f"{entry['mean']:g}"
+            if not pd.isna(entry["std"]):
+                figure += f" ± {entry['std']:g}"
+            row[f"{entry['source']}, {_steps_short(float(entry['budget']))}"] = figure
+        if env_id not in ours:
+            row[f"{name} here"] = "not run yet"
+            rows.append(row)
+            continue
+        folder, algo_df = ours[env_id]
+        per_seed, _ = _per_seed(algo_df)
+        budget = float(np.median([df["steps"].iloc[-1] for df in per_seed]))
+        # Judged by the lower of the two evaluations: Tianshou's are of sampled actions, the issue asks deterministic
+        columns = ["mean_return", "mean_return_stochastic"] if "mean_return_stochastic" in algo_df else ["mean_return"]
+        best = min(best_mean_over_seeds(_aligned_curves(algo_df, column))[0] for column in columns)
+        row[f"{name} here"] = f"{_best_mean(algo_df, 'mean_return')} ({_steps_short(budget)})"
+        if "mean_return_stochastic" in algo_df:
+            row[f"{name} here, sampled actions"] = _best_mean(algo_df, "mean_return_stochastic")
+        finals = _finals(per_seed, "mean_return")
+        low, high = bootstrap_ci(finals, iqm)
+        row["final IQM [95% CI]"] = f"{iqm(finals):.1f} [{low:.1f}, {high:.1f}]"
+        row["seeds"] = _seed_range([int(seed) for seed in algo_df["seed"].unique()])
+        same_budget = env_rows[env_rows["budget"].map(lambda steps: _steps_short(float(steps))) == _steps_short(budget)]
+        below = [f"{entry['source']} ({entry['mean']:g})" for _, entry in same_budget.iterrows() if best < entry["mean"]]
+        row["at or above the published"] = "-" if same_budget.empty else ("yes" if not below else "below " + ", ".join(below))
+        row["folder"] = f"`{Path(folder).as_posix().rstrip('/')}`"
+        rows.append(row)
+    return pd.DataFrame(rows).fillna("")
+
+
 def summary_table(
     results: pd.DataFrame, summaries: dict[tuple[str, int], dict], threshold: float | None, compact: bool = False
 ) -> pd.DataFrame:
@@ -196,6 +273,8 @@ def summary_table(
         if "mean_return_stochastic" in algo_df:
             header = "sampled" if compact else "final sampled-action score, IQM"
             row[header] = f"{iqm(_finals(per_seed, 'mean_return_stochastic')):.1f}"
+        if not compact:
+            row["best mean over seeds ± std"] = _best_mean(algo_df, "mean_return")
         if threshold is not None:
             steps_to, seconds_to = _reach(trained, threshold)
             if compact:
