@@ -678,8 +678,8 @@ def test_overview_table_hand_computed(tmp_path: Path, capsys: pytest.CaptureFixt
 
 
 def test_published_table_hand_computed(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    # REINFORCE on seeds 0-1 over 2,000 steps (evaluations at 0, 1,000 and 2,000): mean curve 1.5, 3.5, 2.5 (best 3.5, std 0.5 at the second point); its
-    # sampled-action curve is one lower everywhere (best 2.5)
+    # REINFORCE on seeds 0-1 over 2,000 steps (evaluations at 0, 1,000 and 2,000): mean curve 1.5, 3.5, 2.5 (best
+    # 3.5, std 0.5 at the second point); its sampled-action curve is one lower everywhere (best 2.5)
     folder = tmp_path / "run"
     _fake_comparison(folder, "Hopper-v4", 3.0, {("reinforce", 0): [1, 3, 4], ("reinforce", 1): [2, 4, 1]})
     published = pd.DataFrame(
@@ -697,7 +697,7 @@ def test_published_table_hand_computed(tmp_path: Path, capsys: pytest.CaptureFix
     # Judged by the lower figure (2.5): above A's 2, below B's 3; the 10k number is another budget
     assert hopper["at or above the published"] == "below B (3)"
     assert hopper["final IQM [95% CI]"].startswith("2.5 [") and hopper["seeds"] == "0, 1"
-    assert ant["REINFORCE here"] == "not run yet" and ant["A, 2k"] == "1 ± 0.1"
+    assert ant["REINFORCE here"] == "not measured yet" and ant["A, 2k"] == "1 ± 0.1"
     # A seed still running counts only at the points both have reached: seed 2 stops after the first point
     _fake_comparison(tmp_path / "partial", "Hopper-v4", 3.0, {("reinforce", 0): [1, 3, 4], ("reinforce", 2): [5]})
     assert published_table([tmp_path / "partial"], published).iloc[0]["REINFORCE here"].startswith("3.0 ± 2.0")

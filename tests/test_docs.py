@@ -7,6 +7,7 @@ import os
 import re
 from pathlib import Path
 
+import pandas as pd
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
@@ -60,3 +61,25 @@ def test_summary_is_the_committed_results(page: str, monkeypatch: pytest.MonkeyP
         assert [ax.get_title() for ax in axes if ax.get_title()] == list(
             dict.fromkeys(row.split(" (")[0] for row in overview_table(folders)["env (threshold)"])
         )
+
+
+#: The command that writes a page's table of published results (the comparison folders, none yet, and the CSV)
+PUBLISHED_COMMAND = r"`sb3-reinforce report ((?:benchmarks/results/\S+ )*)--published (\S+) --published-into {page}`"
+
+
+def test_published_table_is_the_committed_results(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The MuJoCo table of the results page is what `report --published` makes of the committed folders and the
+    # published numbers' CSV, so it cannot go stale
+    from sb3_reinforce.lab.compare.report import published_table, to_markdown
+
+    page = "docs/results.md"
+    text = (REPO / page).read_text()
+    command = re.search(PUBLISHED_COMMAND.format(page=re.escape(page)), text)
+    assert command is not None, f"{page} names the command that writes its published table"
+    monkeypatch.chdir(REPO)
+    folders = [Path(name) for name in command.group(1).split()]
+    block = re.search(r"<!-- published -->\n(.*?)<!-- /published -->", text, re.DOTALL)
+    assert block is not None
+    published = pd.read_csv(command.group(2))
+    assert block.group(1) == to_markdown(published_table(folders, published))
+    assert len(published["env_id"].unique()) == 9  # the nine envs of Tianshou's table

@@ -87,7 +87,7 @@ def build_parser() -> argparse.ArgumentParser:
         "table. A folder with per_run/ is a comparison (sb3-reinforce compare), a folder with episodes_seed*.csv a "
         "seed reproduction (sb3-reinforce seed).",
     )
-    parser.add_argument("dirs", nargs="+", metavar="DIR", help="result folders")
+    parser.add_argument("dirs", nargs="*", metavar="DIR", help="result folders (at least one, but with --published)")
     parser.add_argument(
         "--summary",
         type=Path,
@@ -132,6 +132,8 @@ def main(argv: list[str] | None = None) -> None:
     """Command line entry point (see the module docstring)."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    if not args.dirs and args.published is None:
+        parser.error("give at least one result folder DIR")
     tables = {}
     for name in args.dirs:
         try:

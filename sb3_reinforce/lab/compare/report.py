@@ -205,7 +205,7 @@ def published_table(folders: Sequence[Path], published: pd.DataFrame, algo: str 
         ``mean`` (the published figure), ``std`` (its standard deviation over seeds, NaN where none is given) and
         optionally ``approximate`` (True: read off a plot, shown as ``~``)
     :param algo: The algorithm of the folders to read
-    :return: A table of strings, one row per environment of ``published`` in its order ("not run yet" where no
+    :return: A table of strings, one row per environment of ``published`` in its order ("not measured yet" where no
         folder has it)
     """
     ours: dict[str, tuple[Path, pd.DataFrame]] = {}
@@ -222,7 +222,7 @@ def published_table(folders: Sequence[Path], published: pd.DataFrame, algo: str 
                 figure += f" ± {entry['std']:g}"
             row[f"{entry['source']}, {_steps_short(float(entry['budget']))}"] = figure
         if env_id not in ours:
-            row[f"{name} here"] = "not run yet"
+            row[f"{name} here"] = "not measured yet"
             rows.append(row)
             continue
         folder, algo_df = ours[env_id]
