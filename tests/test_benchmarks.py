@@ -329,3 +329,35 @@ def test_verify_carracing_tuned_asks_for_the_pick() -> None:
     result = subprocess.run(["bash", str(script), "reinforce"], capture_output=True, text=True)
     assert result.returncode != 0
     assert "usage: run.sh reinforce CONFIG" in result.stderr
+
+
+def test_mujoco_tuning_rule(tmp_path: Path) -> None:
+    # The rule on made-up evaluations: the best mean over seeds wins; within 2% of the threshold, the last five decide;
+    # nothing while a candidate is short of 3M steps on a seed
+    tuning = load("mujoco_tuning")
+
+    def run(candidate: str, seed: int, returns: list[float], steps: int = 3_000_000) -> None:
+        folder = tmp_path / candidate / "Hopper-v4"
+        (folder / "per_run").mkdir(parents=True, exist_ok=True)
+        (folder / "comparison.json").write_text('{"env": "Hopper-v4", "threshold": 800}')
+        points = [round(steps * i / (len(returns) - 1)) for i in range(len(returns))]
+        frame = {"seed": seed, "eval_index": range(len(returns)), "steps": points, "mean_return": returns}
+        frame["mean_return_stochastic"] = [r - 1 for r in returns]
+        pd.DataFrame(frame).to_csv(folder / "per_run" / f"reinforce_seed{seed}.csv", index=False)
+
+    # a: best mean 1,000 at the second point (1,000 and 1,000), last five 500; b: 990 (within 16 of a), last five 900
+    run("a_value4", 100, [0, 1000, *[500] * 5])
+    run("a_value4", 101, [0, 1000, *[500] * 5])
+    run("b_value4_lr3", 100, [0, 980, *[900] * 5])
+    run("b_value4_lr3", 101, [0, 1000, *[900] * 5])
+    run("c_value8", 100, [0, 950, *[950] * 5])
+    run("c_value8", 101, [0, 950, *[950] * 5], steps=2_000_000)  # short of 3M
+    scores = tuning.candidate_scores(tmp_path)
+    a = scores.set_index("candidate").loc["a_value4"]
+    assert (a["best mean"], a["best mean, sampled"], a["last 5 mean"]) == (1000.0, 999.0, 500.0)
+    assert tuning.pick(scores, "Hopper-v4") is None  # c_value8 has not finished
+    run("c_value8", 101, [0, 950, *[950] * 5])
+    # c (950) is 50 below a: out of the tie; a and b within 16 (2% of 800): b's last five (900) beat a's (500)
+    assert tuning.pick(tuning.candidate_scores(tmp_path), "Hopper-v4") == "b_value4_lr3"
+    run("b_value4_lr3", 100, [0, 900, *[900] * 5])  # b's best mean 950: no tie, a's 1,000 wins
+    assert tuning.pick(tuning.candidate_scores(tmp_path), "Hopper-v4") == "a_value4"

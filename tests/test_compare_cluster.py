@@ -372,3 +372,27 @@ def test_a_resumed_runs_checkpoint_is_not_in_the_task_graph() -> None:
     assert failures == {}
     assert results["run"].value == (len(checkpoint), b"PK\x03\x04")
     assert not [w for w in caught if "large graph" in str(w.message)], [str(w.message) for w in caught]
+
+
+def _sleep(channel: Any, seconds: float) -> float:  # a run, on its worker: when it started
+    started = time.time()
+    time.sleep(seconds)
+    return started
+
+
+def test_runs_are_submitted_as_cpus_free_up() -> None:
+    # One long run and four short ones on two workers of one CPU each: the short ones all go to the worker that is free,
+    # one after another, as a pool would run them. Submitted all at once, Dask shared them out up front (a task with
+    # resources skips its queue), and the worker of the long run had short runs left when the other was done.
+    from sb3_reinforce.lab.compare.cluster import Job, JobResult, open_client, run_jobs
+
+    results: dict[str, JobResult] = {}
+    jobs = [Job("long", _sleep, (4.0,), 1, "none"), *(Job(f"short{i}", _sleep, (0.5,), 1, "none") for i in range(4))]
+    with open_client(None, 2, 1) as client:
+        client.wait_for_workers(2, timeout=60)
+        failures = run_jobs(client, jobs, lambda *_: None, lambda name, result: results.update({name: result}))
+    assert failures == {}
+    short_workers = {results[f"short{i}"].worker for i in range(4)}
+    assert len(short_workers) == 1 and results["long"].worker not in short_workers, results
+    starts = [results[f"short{i}"].value for i in range(4)]
+    assert starts == sorted(starts)  # in the given order

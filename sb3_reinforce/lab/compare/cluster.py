@@ -318,6 +318,11 @@ class RunChannel:
             raise RunStopped(self.name)
 
 
+def _workers(client: Client) -> dict[str, dict[str, Any]]:
+    """The cluster's workers, as the scheduler knows them now (all of them, not the first five)."""
+    return dict(client.scheduler_info(n_workers=-1)["workers"])
+
+
 def _variable_name(token: str, name: str) -> str:
     return f"sb3-reinforce-{token}-files-{name}"
 
@@ -402,22 +407,39 @@ def run_jobs(
         variable.set(job.files)
     messages = Queue(_queue_name(token), client=client)
     stop = Event(_stop_name(token), client=client)
-    futures = {
-        client.submit(
-            _execute,
-            replace(job, files={}),  # they travel in its Variable (not twice, nor in the task graph)
-            token,
-            key=f"{job.name}-{token}",
-            resources={CPU_RESOURCE: job.cpus},
-            retries=RUN_RETRIES,
-            pure=False,
-        ): job.name
-        for job in jobs
-    }
+    waiting = list(jobs)  # not submitted yet, in the given (seed-major) order
+    cpus = {job.name: job.cpus for job in jobs}
+    futures: dict[Any, str] = {}
     failures: dict[str, str] = {}
     finished: set[str] = set()
-    pending = set(futures)
+    pending: set[Any] = set()
+
+    def submit_what_fits() -> None:
+        # As a pool does: a run is submitted when the cluster has CPUs free for it, the next in order first. Dask
+        # assigns a task with resources to a worker when it is submitted (its queuing skips such tasks: distributed
+        # 2026.8.0), so runs submitted all at once were shared out up front, and one worker could sit idle at the end
+        # while another still had two runs to do (the main job's 9 runs: 25% longer than the same runs two at a time).
+        if not waiting:
+            return
+        lent = sum(float(info.get("resources", {}).get(CPU_RESOURCE, 0)) for info in _workers(client).values())
+        busy = sum(cpus[futures[future]] for future in pending)
+        while waiting and (not pending or busy + waiting[0].cpus <= lent):
+            job = waiting.pop(0)
+            future = client.submit(
+                _execute,
+                replace(job, files={}),  # they travel in its Variable (not twice, nor in the task graph)
+                token,
+                key=f"{job.name}-{token}",
+                resources={CPU_RESOURCE: job.cpus},
+                retries=RUN_RETRIES,
+                pure=False,
+            )
+            futures[future] = job.name
+            pending.add(future)
+            busy += job.cpus
+
     try:
+        submit_what_fits()
         while pending:
             with contextlib.suppress(TimeoutError):
                 wait(list(pending), timeout=0.5, return_when="FIRST_COMPLETED")
@@ -433,6 +455,7 @@ def run_jobs(
                     failures[name] = f"{type(error).__name__}: {str(error).strip().splitlines()[0] if str(error) else ''}"
                 elif (result := future.result()) is not None:  # None: stopped (by another command of this token)
                     on_result(name, result)
+            submit_what_fits()
     except BaseException:
         stop.set()  # running runs stop within STOP_CHECK_S, their last files already sent
         with contextlib.suppress(Exception):

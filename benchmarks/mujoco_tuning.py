@@ -1,0 +1,97 @@
+"""
+The MuJoCo tuning study's rule (``benchmarks/results/mujoco_tuning/README.md``, committed before its runs), applied to
+the evaluations so far: each (candidate, env)'s figures over the tuning seeds, and each env's pick once decided.
+
+    python benchmarks/mujoco_tuning.py [--study benchmarks/results/mujoco_tuning]
+
+A candidate's score on an env is Tianshou's metric over seeds 100 and 101 (the best mean over seeds of the
+deterministic evaluations, :func:`~sb3_reinforce.lab.stats.best_mean_over_seeds`); the highest wins, except that two
+within 2% of the env's threshold's magnitude are ranked by the mean over the two seeds of their last five evaluations
+(2.8M to 3M steps). An env is decided once all three candidates reached 3M steps on both seeds.
+"""
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from sb3_reinforce.lab.stats import best_mean_over_seeds
+
+STUDY = Path(__file__).parent / "results" / "mujoco_tuning"
+CANDIDATES = ("a_value4", "b_value4_lr3", "c_value8")
+SEEDS = (100, 101)
+BUDGET = 3_000_000
+TIE_SHARE = 0.02
+LAST = 5
+
+
+def candidate_scores(study: Path) -> pd.DataFrame:
+    """
+    One row per (env, candidate) with runs: the steps each seed reached, whether both finished, the best mean over
+    seeds of the deterministic and of the sampled-action evaluations, and the mean of the last five evaluations.
+    """
+    thresholds = _thresholds(study)
+    rows = []
+    for candidate in CANDIDATES:
+        for folder in sorted((study / candidate).glob("*-v*")):
+            runs = [pd.read_csv(path) for path in sorted((folder / "per_run").glob("reinforce_seed*.csv"))]
+            runs = [run for run in runs if int(run["seed"].iloc[0]) in SEEDS and len(run)]
+            if not runs:
+                continue
+            frame = pd.concat(runs)
+            row: dict[str, object] = {"env": folder.name, "candidate": candidate, "threshold": thresholds.get(folder.name)}
+            row["steps"] = " / ".join(f"{int(run['steps'].max()):,}" for run in runs)
+            row["finished"] = len(runs) == len(SEEDS) and all(run["steps"].max() >= BUDGET for run in runs)
+            for column, name in (("mean_return", "best mean"), ("mean_return_stochastic", "best mean, sampled")):
+                curves = frame.pivot_table(index="eval_index", columns="seed", values=column).dropna().to_numpy().T
+                row[name] = best_mean_over_seeds(curves)[0]
+            row["last 5 mean"] = float(np.mean([run["mean_return"].iloc[-LAST:].mean() for run in runs]))
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _thresholds(study: Path) -> dict[str, float]:
+    """Each env's threshold, as its comparisons recorded it (``comparison.json``, written by run.sh's --threshold)."""
+    found = {}
+    for meta in study.glob("*/*/comparison.json"):
+        table = pd.read_json(meta, typ="series")
+        found[str(table["env"])] = float(table["threshold"])
+    return found
+
+
+def pick(scores: pd.DataFrame, env: str) -> str | None:
+    """
+    The rule's pick on ``env``, or None until every candidate finished on both seeds.
+
+    :param scores: :func:`candidate_scores`'s table
+    :param env: The env id
+    """
+    rows = scores[scores["env"] == env]
+    if set(rows["candidate"]) != set(CANDIDATES) or not rows["finished"].all():
+        return None
+    ranked = rows.sort_values("best mean", ascending=False)
+    best, second = ranked.iloc[0], ranked.iloc[1] if len(ranked) > 1 else None
+    tie = TIE_SHARE * abs(float(best["threshold"]))
+    if second is not None and best["best mean"] - second["best mean"] <= tie:
+        contenders = ranked[ranked["best mean"] >= best["best mean"] - tie]
+        return str(contenders.sort_values("last 5 mean", ascending=False).iloc[0]["candidate"])
+    return str(best["candidate"])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--study", type=Path, default=STUDY)
+    args = parser.parse_args()
+    scores = candidate_scores(args.study)
+    if scores.empty:
+        print("no runs yet")
+        return
+    print(scores.to_string(index=False, float_format=lambda x: f"{x:,.1f}"))
+    for env in dict.fromkeys(scores["env"]):
+        chosen = pick(scores, env)
+        print(f"{env}: " + (f"pick {chosen}" if chosen else "undecided (a candidate has not reached 3M on both seeds)"))
+
+
+if __name__ == "__main__":
+    main()
