@@ -722,3 +722,23 @@ def test_seed_curves_of_seeds_stopped_early_are_drawn_one_per_seed(tmp_path: Pat
     assert "seed 0 (50 episodes)" in texts and "seed 1 (30 episodes)" in texts and BAND_LABEL not in texts
     assert fig.axes[0].get_yscale() == "symlog"  # returns down to -50,000 against a threshold of -110
     assert [len(line.get_xdata()) for line in fig.axes[0].get_lines()[:2]] == [50, 30]
+
+
+def test_evaluation_batch_plays_evaluate_policys_episodes(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # A run's deterministic episodes stepped side by side give evaluate_policy's returns to the bit, and leave the
+    # evaluation env as evaluate_policy would: the sampled-action evaluation after it is unchanged too
+    from sb3_reinforce.lab.compare import evaluation
+
+    def one_run(folder: Path) -> pd.DataFrame:
+        runner.run(RunSpec("CartPole-v1", "reinforce", 3, 6000, 1000, 5), folder)
+        return pd.read_csv(folder / PER_RUN_DIR / "reinforce_seed3.csv")
+
+    batched = one_run(tmp_path / "batched")
+    monkeypatch.setattr(runner, "episode_batch", lambda *args: None)  # evaluate_policy, one episode after another
+    sequential = one_run(tmp_path / "sequential")
+    columns = ["steps", "episodes", "mean_return", "std_return", "mean_return_stochastic", "std_return_stochastic"]
+    assert batched[columns].equals(sequential[columns]), pd.concat([batched[columns], sequential[columns]], axis=1)
+    assert batched["mean_return"].nunique() > 2  # the policy changes, and with it the returns: not a trivial match
+    # Used where the env draws only on reset (CartPole), not where it draws while it steps (LunarLander's particles)
+    assert evaluation.draws_only_on_reset(gym.make("CartPole-v1"))
+    assert not evaluation.draws_only_on_reset(gym.make("LunarLander-v3"))

@@ -218,6 +218,9 @@ class BuiltRun:
     eval_env: VecEnv
     callbacks: list[BaseCallback]
     entry: ZooEntry
+    #: ``eval_copies`` environments made as ``eval_env`` was, for :class:`~sb3_reinforce.lab.compare.evaluation.EpisodeBatch`
+    #: (None: not asked for)
+    eval_copies: VecEnv | None = None
 
 
 def build_run(
@@ -230,6 +233,7 @@ def build_run(
     vec_env: str = "dummy",
     envpool_threads: int = 1,
     device: str = "cpu",
+    eval_copies: int = 0,
 ) -> BuiltRun:
     """
     Build one run through the zoo's experiment manager, as ``sb3-reinforce-zoo train --algo ALGO --env ENV
@@ -249,6 +253,8 @@ def build_run(
         a thread per core, whose idle threads spin while the policy computes
     :param device: Where the model's networks compute (PyTorch's device: ``"cpu"``, ``"cuda"``, ``"cuda:1"``,
         ``"auto"``), see :func:`check_device`
+    :param eval_copies: Also make this many copies of the evaluation environment in one ``DummyVecEnv`` (the same
+        wrappers), for an evaluation's episodes stepped together (0: none)
     :return: The run, ready to ``model.learn``
     """
     check_vec_env(vec_env, env_id)
@@ -262,9 +268,10 @@ def build_run(
         manager.vec_env_class = DummyVecEnv
         try:
             eval_env = manager.create_envs(1, eval_env=True)
+            copies = manager.create_envs(eval_copies, eval_env=True) if eval_copies > 0 else None
         finally:
             manager.seed = seed
     entry = _entry(manager, algo, env_id, saved)
     train_env = model.get_env()
     assert train_env is not None
-    return BuiltRun(model, train_env, eval_env, list(manager.callbacks), entry)
+    return BuiltRun(model, train_env, eval_env, list(manager.callbacks), entry, copies)

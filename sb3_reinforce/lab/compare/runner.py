@@ -44,6 +44,7 @@ from stable_baselines3.common.evaluation import evaluate_policy
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecEnv, sync_envs_normalization
 
+from sb3_reinforce.lab.compare.evaluation import EpisodeBatch, episode_batch
 from sb3_reinforce.lab.compare.experiment import build_run
 from sb3_reinforce.lab.compare.report import PER_RUN_DIR
 from sb3_reinforce.version import __version__
@@ -111,6 +112,8 @@ class ComparisonEvalCallback(BaseCallback):
     :param resumed: The counters of the checkpoint this run resumes from (or None: a new run, evaluated
         before training)
     :param heartbeat: Called at every step (or None); it may raise to stop the run (its last checkpoint kept)
+    :param episode_batch: Plays the deterministic episodes side by side, with the same returns (or None:
+        ``evaluate_policy`` plays them one after another), see :mod:`sb3_reinforce.lab.compare.evaluation`
     """
 
     def __init__(
@@ -122,8 +125,10 @@ class ComparisonEvalCallback(BaseCallback):
         checkpoint: "Checkpoint | None" = None,
         resumed: dict[str, Any] | None = None,
         heartbeat: Callable[[], None] | None = None,
+        episode_batch: EpisodeBatch | None = None,
     ) -> None:
         super().__init__()
+        self.episode_batch = episode_batch
         self.heartbeat = heartbeat
         self.spec = spec
         self.eval_env = eval_env
@@ -181,13 +186,17 @@ class ComparisonEvalCallback(BaseCallback):
         sync_envs_normalization(self.training_env, self.eval_env)
         results = []
         for deterministic in (True, False):
-            rewards, _ = evaluate_policy(
-                self.model,
-                self.eval_env,
-                n_eval_episodes=self.spec.n_eval_episodes,
-                deterministic=deterministic,
-                return_episode_rewards=True,
-            )
+            if deterministic and self.episode_batch is not None:
+                sync_envs_normalization(self.training_env, self.episode_batch.copies)
+                rewards: list[float] = self.episode_batch.evaluate(self.model)
+            else:
+                rewards, _ = evaluate_policy(  # type: ignore[assignment]
+                    self.model,
+                    self.eval_env,
+                    n_eval_episodes=self.spec.n_eval_episodes,
+                    deterministic=deterministic,
+                    return_episode_rewards=True,
+                )
             results += [float(np.mean(rewards)), float(np.std(rewards))]
         self.eval_time += time.perf_counter() - eval_start
         row = [
@@ -457,8 +466,19 @@ def run(
 
     with tempfile.TemporaryDirectory(prefix=f"{spec.name}-zoo-") as zoo_folder:
         config = None if spec.config_path is None else Path(spec.config_path)
-        built = build_run(spec.algo, spec.env_id, spec.seed, spec.budget, Path(zoo_folder), config, vec_env, device=device)
+        built = build_run(
+            spec.algo,
+            spec.env_id,
+            spec.seed,
+            spec.budget,
+            Path(zoo_folder),
+            config,
+            vec_env,
+            device=device,
+            eval_copies=spec.n_eval_episodes if spec.n_eval_episodes > 1 else 0,
+        )
         model, eval_env = built.model, built.eval_env
+        batch = None if built.eval_copies is None else episode_batch(eval_env, built.eval_copies)
         hyperparams = {key: str(value) for key, value in built.entry.hyperparams.items()}
         # Off-policy runs are not checkpointed: model.save leaves their replay buffer out
         checkpoint = (
@@ -476,7 +496,7 @@ def run(
             with csv_path.open("w", newline="") as f:
                 csv.writer(f).writerow(RESULT_COLUMNS)
         exploration_noise_to_policy_device(model)
-        callback = ComparisonEvalCallback(spec, eval_env, csv_path, progress, checkpoint, resumed, heartbeat)
+        callback = ComparisonEvalCallback(spec, eval_env, csv_path, progress, checkpoint, resumed, heartbeat, batch)
         # Resumed: the steps left, on the restored step count (the schedules go on from where they were)
         model.learn(
             total_timesteps=spec.budget - model.num_timesteps,
@@ -488,6 +508,8 @@ def run(
             callback._evaluate()  # the final point, at the end of the budget
         built.train_env.close()
         eval_env.close()
+        if batch is not None:
+            batch.copies.close()
     summary = dict(
         spec=spec.__dict__,
         code_version=version,
