@@ -15,6 +15,8 @@ that follows on it plays the episodes it always played.
 This holds where an environment draws random numbers only when it resets (CartPole, Acrobot, MountainCar, Pendulum,
 the MuJoCo tasks), which is checked once, on a copy, by stepping it with random actions: an environment that also
 draws while it steps (LunarLander's engine particles) is evaluated by ``evaluate_policy``, one episode after another.
+The check is a sample: an environment that drew only in states that 200 random actions do not reach would pass it,
+and its batched episodes would then be other episodes than ``evaluate_policy``'s (as fair, not the same).
 """
 
 import copy
@@ -86,6 +88,8 @@ class EpisodeBatch:
         """Give copy ``i`` the generator (or pending seed) of the evaluation env's ``i``-th reset; reset it as
         ``evaluate_policy`` would: once at its start, once after each episode."""
         for i in range(self.n_episodes):
+            # SB3's VecEnv keeps the seed of its next reset in the private `_seeds` (stable-baselines3 2.x, bounded
+            # below 3.0 in pyproject.toml): it has no public getter, and the very first reset is a seeded one
             self._many._seeds[i] = self._one._seeds[0]  # the seed of the very first reset, then None
             self._many.envs[i].unwrapped.np_random = copy.deepcopy(self._one.envs[0].unwrapped.np_random)
             self.evaluation_env.reset()
