@@ -5,7 +5,7 @@ the evaluations so far: each (candidate, env)'s figures over the tuning seeds, a
     python benchmarks/mujoco_tuning.py [--study benchmarks/results/mujoco_tuning]
 
 A candidate's score on an env is Tianshou's metric over seeds 100 and 101 (the best mean over seeds of the
-deterministic evaluations, :func:`~sb3_reinforce.lab.stats.best_mean_over_seeds`); the highest wins, except that two
+deterministic evaluations, :func:`~sb3_reinforce.lab.compare.report.best_mean`); the highest wins, except that two
 within 2% of the env's threshold's magnitude are ranked by the mean over the two seeds of their last five evaluations
 (2.8M to 3M steps). An env is decided once all three candidates reached 3M steps on both seeds.
 """
@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from sb3_reinforce.lab.stats import best_mean_over_seeds
+from sb3_reinforce.lab.compare.report import best_mean
 
 STUDY = Path(__file__).parent / "results" / "mujoco_tuning"
 CANDIDATES = ("a_value4", "b_value4_lr3", "c_value8")
@@ -43,9 +43,8 @@ def candidate_scores(study: Path) -> pd.DataFrame:
             row: dict[str, object] = {"env": folder.name, "candidate": candidate, "threshold": thresholds.get(folder.name)}
             row["steps"] = " / ".join(f"{int(run['steps'].max()):,}" for run in runs)
             row["finished"] = len(runs) == len(SEEDS) and all(run["steps"].max() >= BUDGET for run in runs)
-            for column, name in (("mean_return", "best mean"), ("mean_return_stochastic", "best mean, sampled")):
-                curves = frame.pivot_table(index="eval_index", columns="seed", values=column).dropna().to_numpy().T
-                row[name] = best_mean_over_seeds(curves)[0]
+            row["best mean"] = best_mean(frame, "mean_return")[0]
+            row["best mean, sampled"] = best_mean(frame, "mean_return_stochastic")[0]
             row["last 5 mean"] = float(np.mean([run["mean_return"].iloc[-LAST:].mean() for run in runs]))
             rows.append(row)
     return pd.DataFrame(rows)

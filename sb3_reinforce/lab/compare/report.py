@@ -36,6 +36,7 @@ PER_RUN_DIR = "per_run"
 __all__ = [
     "BAND_LABEL",
     "PER_RUN_DIR",
+    "best_mean",
     "load_summaries",
     "overview_table",
     "plot_learning_curves",
@@ -109,18 +110,22 @@ def _finals(per_seed: Sequence[pd.DataFrame], column: str) -> list[float]:
     return [float(df[column].iloc[-1]) for df in per_seed]
 
 
-def _aligned_curves(algo_df: pd.DataFrame, column: str) -> np.ndarray:
+def best_mean(algo_df: pd.DataFrame, column: str) -> tuple[float, float, int]:
     """
-    One algorithm's evaluations as ``(seeds, points)``: each seed's by evaluation index, only the points every seed
-    has reached (a run still going has fewer).
+    Tianshou's metric (:func:`~sb3_reinforce.lab.stats.best_mean_over_seeds`) of one algorithm's evaluations: its
+    seeds' ``column`` by evaluation index, at the points every seed has reached (a run still going has fewer).
+
+    :param algo_df: One algorithm's rows of ``results.csv``
+    :param column: ``"mean_return"`` (deterministic) or ``"mean_return_stochastic"``
+    :return: (the best mean over seeds, the standard deviation over seeds there, the index of that point)
     """
-    return algo_df.pivot_table(index="eval_index", columns="seed", values=column).dropna().to_numpy().T
+    curves = algo_df.pivot_table(index="eval_index", columns="seed", values=column).dropna().to_numpy().T
+    return best_mean_over_seeds(curves)
 
 
-def _best_mean(algo_df: pd.DataFrame, column: str) -> str:
-    """Tianshou's metric (:func:`~sb3_reinforce.lab.stats.best_mean_over_seeds`) as ``best ± std``."""
-    best, std, _ = best_mean_over_seeds(_aligned_curves(algo_df, column))
-    return f"{best:.1f} ± {std:.1f}"
+def _shown(figure: tuple[float, float, int]) -> str:
+    """A :func:`best_mean` figure as ``best ± std``."""
+    return f"{figure[0]:.1f} ± {figure[1]:.1f}"
 
 
 def _seed_range(seeds: Sequence[int]) -> str:
@@ -228,12 +233,13 @@ def published_table(folders: Sequence[Path], published: pd.DataFrame, algo: str 
         folder, algo_df = ours[env_id]
         per_seed, _ = _per_seed(algo_df)
         budget = float(np.median([df["steps"].iloc[-1] for df in per_seed]))
-        # Judged by the lower of the two evaluations: Tianshou's are of sampled actions, the issue asks deterministic
         columns = ["mean_return", "mean_return_stochastic"] if "mean_return_stochastic" in algo_df else ["mean_return"]
-        best = min(best_mean_over_seeds(_aligned_curves(algo_df, column))[0] for column in columns)
-        row[f"{name} here"] = f"{_best_mean(algo_df, 'mean_return')} ({_steps_short(budget)})"
-        if "mean_return_stochastic" in algo_df:
-            row[f"{name} here, sampled actions"] = _best_mean(algo_df, "mean_return_stochastic")
+        figures = [best_mean(algo_df, column) for column in columns]
+        # Judged by the lower of the two evaluations: Tianshou's are of sampled actions, the issue asks deterministic
+        best = min(figure[0] for figure in figures)
+        row[f"{name} here"] = f"{_shown(figures[0])} ({_steps_short(budget)})"
+        if len(figures) > 1:
+            row[f"{name} here, sampled actions"] = _shown(figures[1])
         finals = _finals(per_seed, "mean_return")
         low, high = bootstrap_ci(finals, iqm)
         row["final IQM [95% CI]"] = f"{iqm(finals):.1f} [{low:.1f}, {high:.1f}]"
@@ -274,7 +280,7 @@ def summary_table(
             header = "sampled" if compact else "final sampled-action score, IQM"
             row[header] = f"{iqm(_finals(per_seed, 'mean_return_stochastic')):.1f}"
         if not compact:
-            row["best mean over seeds ± std"] = _best_mean(algo_df, "mean_return")
+            row["best mean over seeds ± std"] = _shown(best_mean(algo_df, "mean_return"))
         if threshold is not None:
             steps_to, seconds_to = _reach(trained, threshold)
             if compact:
