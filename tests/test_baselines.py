@@ -247,8 +247,14 @@ def test_value_steps_on_cached_features_match_the_full_network() -> None:
 
 
 def test_value_learning_rate_schedule() -> None:
+    # seeded: unseeded, the episodes' lengths sometimes summed to exactly 2,000 and the last batch ended on the budget
     model = REINFORCE(
-        "MlpPolicy", "CartPole-v1", baseline="value", n_value_steps=2, value_learning_rate=lambda progress: 1e-2 * progress
+        "MlpPolicy",
+        "CartPole-v1",
+        baseline="value",
+        n_value_steps=2,
+        value_learning_rate=lambda progress: 1e-2 * progress,
+        seed=0,
     )
     model.learn(2000)
     assert model.value_optimizer is not None
