@@ -1,0 +1,63 @@
+"""
+Golden numbers: a fixed seed gives the same training, to the bit, before and after a refactoring.
+
+Each case trains REINFORCE for a few thousand steps from a fixed seed and compares every finished episode's
+return and a checksum of the final weights with the numbers in ``tests/golden.json``, produced by the code of
+commit 6ba24a4 (before the package was reshaped for issue 46) with ``python -m tests.test_golden >
+tests/golden.json``. A change that moves one draw of the random generators, one floating-point operation of the
+loss or one step of the rollout changes them. Update them only for a change meant to alter training, and say so
+in its commit.
+"""
+
+import json
+import pathlib
+import sys
+from typing import Any
+
+import pytest
+import torch as th
+from stable_baselines3.common.env_util import make_vec_env
+from stable_baselines3.common.envs import IdentityEnvMultiBinary, IdentityEnvMultiDiscrete
+
+from sb3_reinforce import REINFORCE
+
+#: name: (environment, n_envs, REINFORCE's arguments, steps)
+CASES: dict[str, tuple[Any, int, dict[str, Any], int]] = {
+    "cartpole_plain": ("CartPole-v1", 1, {}, 3_000),
+    "cartpole_value_steps_4envs": ("CartPole-v1", 4, dict(baseline="value", n_value_steps=5, n_episodes=2), 4_000),
+    "cartpole_loo": ("CartPole-v1", 1, dict(baseline="loo", n_episodes=4, max_grad_norm=0.5), 3_000),
+    "pendulum_value_joint": ("Pendulum-v1", 2, dict(baseline="value", min_steps=400, learning_rate=3e-3), 4_000),
+    "pendulum_plain_sde": ("Pendulum-v1", 1, dict(use_sde=True, sde_sample_freq=4), 2_000),
+    "multidiscrete": (lambda: IdentityEnvMultiDiscrete(dim=3, ep_length=10), 1, dict(n_episodes=2), 1_000),
+    "multibinary": (lambda: IdentityEnvMultiBinary(dim=3, ep_length=10), 2, dict(ent_coef=0.01), 1_000),
+}
+
+
+def train(name: str) -> dict[str, Any]:
+    """Train one case; return its episodes' returns and the checksum of its weights."""
+    env_id, n_envs, kwargs, steps = CASES[name]
+    env = make_vec_env(env_id, n_envs=n_envs, seed=0)
+    model = REINFORCE("MlpPolicy", env, seed=0, stats_window_size=100_000, **kwargs)
+    model.learn(steps)
+    returns = [float(info["r"]) for info in model.ep_info_buffer]
+    checksum = float(sum(p.detach().double().sum() for p in model.policy.parameters()))
+    return {"n_timesteps": model.num_timesteps, "returns": returns, "weights_checksum": checksum}
+
+
+#: Recorded at commit 6ba24a4 (see the module docstring): tests/golden.json
+GOLDEN: dict[str, dict[str, Any]] = json.loads((pathlib.Path(__file__).parent / "golden.json").read_text())
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_same_seed_same_training(name: str) -> None:
+    th.set_num_threads(1)
+    result = train(name)
+    expected = GOLDEN[name]
+    assert result["n_timesteps"] == expected["n_timesteps"]
+    assert result["returns"] == expected["returns"]
+    assert result["weights_checksum"] == expected["weights_checksum"]
+
+
+if __name__ == "__main__":  # record the numbers: python -m tests.test_golden > tests/golden.json
+    th.set_num_threads(1)
+    json.dump({name: train(name) for name in sorted(CASES)}, sys.stdout, indent=1)
