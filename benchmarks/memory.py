@@ -12,6 +12,9 @@ Usage::
     python benchmarks/memory.py                                   # reinforce 100k and 1M, ppo 100k
     python benchmarks/memory.py --runs reinforce:2000 ppo:2048    # seconds
     python benchmarks/memory.py --runs random:100000 random:1000000   # the environment alone, random actions
+
+REINFORCE runs with :class:`~sb3_reinforce.safeguards.TrimHeap` (as ``sb3-reinforce compare`` and the zoo train it);
+``reinforce_notrim`` is the same run without it.
 """
 
 import argparse
@@ -38,6 +41,7 @@ def child(algo: str, steps: int, env_id: str, n_envs: int, seed: int) -> dict[st
     from stable_baselines3.common.env_util import make_vec_env
 
     from sb3_reinforce import REINFORCE
+    from sb3_reinforce.safeguards import TrimHeap
 
     th.set_num_threads(1)
     env = make_vec_env(env_id, n_envs=n_envs, seed=seed)
@@ -53,12 +57,13 @@ def child(algo: str, steps: int, env_id: str, n_envs: int, seed: int) -> dict[st
             return n_iters * env.num_envs
 
     else:
-        algo_class = {"reinforce": REINFORCE, "reinforce_value": REINFORCE, "ppo": PPO}[algo]
+        algo_class = {"reinforce": REINFORCE, "reinforce_notrim": REINFORCE, "reinforce_value": REINFORCE, "ppo": PPO}[algo]
         kwargs = {"baseline": "value"} if algo == "reinforce_value" else {}
         model = algo_class("MlpPolicy", env, seed=seed, device="cpu", **kwargs)
+        callback = TrimHeap() if algo in ("reinforce", "reinforce_value") else None
 
         def run() -> int:
-            model.learn(steps)
+            model.learn(steps, callback=callback)
             return model.num_timesteps
 
     rss_before = psutil.Process().memory_info().rss
@@ -90,7 +95,7 @@ def main(argv: list[str] | None = None) -> None:
         "--runs",
         nargs="+",
         default=DEFAULT_RUNS,
-        help="ALGO:STEPS, ALGO in reinforce, reinforce_value, ppo, random (the env alone)",
+        help="ALGO:STEPS, ALGO in reinforce, reinforce_notrim, reinforce_value, ppo, random (the env alone)",
     )
     parser.add_argument("--env", default="LunarLander-v3")
     parser.add_argument("--n-envs", type=int, default=1)

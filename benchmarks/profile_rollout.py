@@ -3,8 +3,8 @@ Where REINFORCE's time goes: cProfile of ``REINFORCE.learn()``, summed into the 
 
 Prints, for the fast rollout path and for SB3's sampling path (``policy_kwargs=dict(fast_rollout=False)``),
 the share of the profiled time spent in: the VecEnv's ``step`` (the environment itself, its wrappers and
-the DummyVecEnv copies), action sampling, the buffer's ``add``, the rest of the rollout loop (finite checks,
-callbacks, info buffer), and ``train()`` with ``compute_returns()`` (one gradient step per batch).
+the DummyVecEnv copies), action sampling, the buffer's ``add``, the rest of the rollout loop
+(callbacks, info buffer), and ``train()`` with ``compute_returns()`` (one gradient step per batch).
 cProfile slows Python code down more than C code, so the shares are indicative; ``throughput.py`` gives rates.
 
 Usage::

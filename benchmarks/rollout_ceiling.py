@@ -39,10 +39,9 @@ import numpy as np
 import torch as th
 from throughput import make_env, time_raw  # benchmarks/throughput.py, next to this script
 
-import sb3_reinforce.reinforce.reinforce as reinforce_module
 from sb3_reinforce import REINFORCE
 
-PARTS = ("env step", "sampling", "buffer add", "finite check", "episode info", "compute_returns", "train")
+PARTS = ("env step", "sampling", "buffer add", "episode info", "compute_returns", "train")
 
 
 def _timed(function: Callable[..., Any], part: str, totals: dict[str, float]) -> Callable[..., Any]:
@@ -77,9 +76,6 @@ def split_learn(env_id: str, n_envs: int, steps: int, seed: int) -> tuple[dict[s
         return None if sampler is None else _timed(sampler, "sampling", totals)
 
     model.policy.fast_sampler = timed_sampler  # type: ignore[method-assign]
-    # the finite check is a function of the algorithm's module (finite_checks.check_step), called by name there
-    check_step = reinforce_module.check_step
-    reinforce_module.check_step = _timed(check_step, "finite check", totals)
     model._update_info_buffer = _timed(model._update_info_buffer, "episode info", totals)  # type: ignore[method-assign]
     model.train = _timed(model.train, "train", totals)  # type: ignore[method-assign]
     buffer = model.rollout_buffer
@@ -87,10 +83,7 @@ def split_learn(env_id: str, n_envs: int, steps: int, seed: int) -> tuple[dict[s
     buffer.compute_returns = _timed(buffer.compute_returns, "compute_returns", totals)  # type: ignore[method-assign]
 
     start = time.process_time()
-    try:
-        model.learn(steps)
-    finally:
-        reinforce_module.check_step = check_step
+    model.learn(steps)
     totals["learn"] = time.process_time() - start
     env.close()
     return dict(totals), vec_steps, model._n_updates

@@ -37,7 +37,6 @@ from sb3_reinforce.lab.compare.report import PER_RUN_DIR
 from sb3_reinforce.lab.compare.runner import RunSpec, run
 from sb3_reinforce.lab.zoo.hyperparams_opt import suggest_reinforce_params, zoo_entry
 from sb3_reinforce.reinforce.buffers import RolloutLimitError
-from sb3_reinforce.reinforce.finite_checks import NonFiniteError
 
 
 def score_run(csv_path: Path, last: int) -> float:
@@ -69,7 +68,7 @@ def build_objective(args: argparse.Namespace, base: dict[str, Any]) -> Any:
             try:
                 if runs_to_do([spec], trial_dir):  # not finished yet
                     run(spec, trial_dir)
-            except (NonFiniteError, RolloutLimitError) as error:
+            except (FloatingPointError, RolloutLimitError) as error:  # a non-finite update, an endless episode
                 raise optuna.TrialPruned(f"seed {seed}: {error}") from error
             scores.append(score_run(trial_dir / PER_RUN_DIR / f"{spec.name}.csv", args.score_last))
             trial.set_user_attr("seed_scores", scores)

@@ -1,6 +1,6 @@
 """
 What the value baseline's own fitting steps (``n_value_steps``) cost, with the critic's features computed once per
-batch (the cached path of ``sb3_reinforce.reinforce.value_fitting._value_predictor``, the default with a shared
+batch (the cached path of ``REINFORCE._fit_value``, the default with a shared
 features extractor) against every step running the whole network through ``predict_values`` (the path before it, and
 still the one for a critic with its own extractor), in one run.
 
@@ -29,7 +29,6 @@ import torch as th
 
 from sb3_reinforce import REINFORCE
 from sb3_reinforce.lab.compare.experiment import build_run
-from sb3_reinforce.reinforce import value_fitting
 
 RESULTS = Path(__file__).parent / "results" / "value_steps_cost.csv"
 COLUMNS = ["env_id", "config", "path", "repeat", "steps", "wall_s", "cpu_s", "value_steps_s", "env_step_s", "steps_per_s"]
@@ -73,19 +72,16 @@ def measure(env_id: str, config: Path, path: str, steps: int, seed: int) -> dict
         built = build_run("reinforce", env_id, seed, steps, Path(log_folder), config)
         model = built.model
         assert isinstance(model, REINFORCE) and model.n_value_steps > 0, "the config must fit the value by steps of its own"
-        assert model.value_fitter is not None
         value_seconds, env_seconds = [0.0], [0.0]
-        model.value_fitter.fit = timed(model.value_fitter.fit, value_seconds)  # type: ignore[method-assign]
+        model._fit_value = timed(model._fit_value, value_seconds)  # type: ignore[method-assign]
         built.train_env.step = timed(built.train_env.step, env_seconds)  # type: ignore[method-assign]
-        cached_predictor = value_fitting._value_predictor
         if path == "full":  # every value step through predict_values: the features extractor forward and backward
-            value_fitting._value_predictor = lambda policy, observations: lambda: policy.predict_values(observations)
-        try:
-            wall, cpu = time.perf_counter(), time.process_time()
-            model.learn(steps)
-            wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
-        finally:
-            value_fitting._value_predictor = cached_predictor
+            base = type(model.policy)  # a policy class with a predict_values of its own makes _fit_value call it
+            own_predict_values = {"predict_values": lambda self, obs: base.predict_values(self, obs)}
+            model.policy.__class__ = type(f"Full{base.__name__}", (base,), own_predict_values)
+        wall, cpu = time.perf_counter(), time.process_time()
+        model.learn(steps)
+        wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
         built.train_env.close()
         built.eval_env.close()
     n = model.num_timesteps

@@ -1,7 +1,8 @@
 """
-The package's two layers, read from the code with ``ast``: the algorithm (``sb3_reinforce.reinforce``) imports
-nothing of the tooling (``sb3_reinforce.lab``), the top level exports the algorithm, and no module takes part in
-an import circle. Every import counts, also one inside a function.
+The package's layers, read from the code with ``ast``: the algorithm (``sb3_reinforce.reinforce``) imports
+nothing of the opt-in safeguards (``sb3_reinforce.safeguards``) or the tooling (``sb3_reinforce.lab``), the
+safeguards nothing of the tooling, the top level exports the algorithm, and no module takes part in an import
+circle. Every import counts, also one inside a function.
 """
 
 import ast
@@ -13,7 +14,10 @@ import sb3_reinforce
 
 PACKAGE_DIR = Path(sb3_reinforce.__file__).parent
 ALGORITHM = "sb3_reinforce.reinforce"
+SAFEGUARDS = "sb3_reinforce.safeguards"
 LAB = "sb3_reinforce.lab"
+#: Each layer, and the layers above it that it must not import
+LAYERS = {ALGORITHM: (SAFEGUARDS, LAB), SAFEGUARDS: (LAB,)}
 
 
 def _module_name(path: Path) -> str:
@@ -97,12 +101,20 @@ def test_no_import_circle() -> None:
     assert _circles() == []
 
 
-@pytest.mark.parametrize("module", sorted(m for m in MODULES if m.startswith(ALGORITHM)))
-def test_the_algorithm_imports_no_tooling(module: str) -> None:
-    upward = sorted(target for target in GRAPH[module] if target.startswith(LAB))
-    assert upward == [], f"{module} imports the tooling: {upward}"
+@pytest.mark.parametrize("module", sorted(m for m in MODULES if m.startswith((ALGORITHM, SAFEGUARDS))))
+def test_nothing_imports_a_layer_above(module: str) -> None:
+    layer = ALGORITHM if module.startswith(ALGORITHM) else SAFEGUARDS
+    upward = sorted(target for target in GRAPH[module] if target.startswith(LAYERS[layer]))
+    assert upward == [], f"{module} imports a layer above it: {upward}"
+
+
+def test_the_algorithm_is_contrib_sized() -> None:
+    # sb3-contrib's shape (issue 46): the algorithm, its policy, its buffer and the return math, in a few files
+    files = sorted((PACKAGE_DIR / "reinforce").glob("*.py"))
+    assert len(files) <= 6, [f.name for f in files]
 
 
 def test_the_top_level_exports_the_algorithm() -> None:
     assert GRAPH["sb3_reinforce"] <= {ALGORITHM, "sb3_reinforce.version"}
-    assert {"REINFORCE", "ReinforcePolicy", "MlpPolicy", "save_weights", "load_weights"} <= set(sb3_reinforce.__all__)
+    assert {"REINFORCE", "ReinforcePolicy", "MlpPolicy", "EpisodeRolloutBuffer"} <= set(sb3_reinforce.__all__)
+    assert not {"save_weights", "load_weights", "NonFiniteError"} & set(sb3_reinforce.__all__)  # the safeguards' own

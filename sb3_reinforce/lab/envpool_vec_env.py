@@ -54,7 +54,7 @@ __all__ = [
 ]
 
 #: The environment ids offered on EnvPool: Gymnasium's ids whose EnvPool twin is checked to score as
-#: Gymnasium's does (tests/test_envpool.py).
+#: Gymnasium's does (tests/lab/test_envpool.py).
 ENVPOOL_ENV_IDS = (
     "CartPole-v1",
     "Acrobot-v1",

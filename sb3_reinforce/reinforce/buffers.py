@@ -46,41 +46,15 @@ class EpisodeRolloutBuffer(BaseBuffer):
     """
     Rollout buffer for REINFORCE that holds whole episodes.
 
-    Every environment writes into its own column of a time-major array ``(capacity, n_envs, ...)``.
-    A batch is full once it holds at least ``n_episodes`` finished episodes and at least ``min_steps``
-    of their steps (episodes that end at the same step are all kept, so a batch may hold more).
-    :meth:`compute_returns` then takes every finished episode out as the training batch and computes its
-    discounted returns; it never cuts an episode.
-
-    **Episodes still running when the batch is full** (only possible with ``n_envs > 1``) stay in the buffer:
-    their steps are moved to the front of their column and the episode continues in the next batch, so
-    no transition is lost or used twice. Their first steps were sampled by the policy before the update;
-    REINFORCE re-evaluates ``log pi(a|s)`` with the current policy, so this is a one-update lag on a part of
-    the batch (with ``n_envs=1`` a batch always ends exactly on an episode end and nothing is carried).
-
-    **The last batch** can be read under the names of SB3's ``RolloutBuffer``, as callbacks written for A2C/PPO
-    read them (in ``_on_rollout_end``, say): ``observations``, ``actions``, ``rewards``, ``returns`` and
-    ``episode_starts`` hold the batch that :meth:`compute_returns` made last (the previous batch while a rollout
-    is running, empty arrays before the first). Its whole episodes lie end to end, one row per transition:
-    the layout SB3's arrays have once ``get()`` has flattened them, not the ``(n_steps, n_envs, ...)`` layout
-    they have during SB3's rollouts. Shapes, with ``batch_size`` transitions:
-
-    - ``observations``: ``(batch_size, *obs_shape)``, in the observation space's dtype (float64 stored as
-      float32); a dict of such arrays, one per key, for a ``Dict`` space
-    - ``actions``: ``(batch_size, action_dim)``, float32, as sampled (before clipping to the bounds)
-    - ``rewards``: ``(batch_size,)``, float64, with ``gamma * V(s_T)`` added to the last reward of a truncated
-      episode when the algorithm bootstraps it (as SB3 adds it)
-    - ``returns``: ``(batch_size,)``, float64, the discounted reward-to-go ``G_t``
-    - ``episode_starts``: ``(batch_size,)``, float32, 1.0 on the first step of each episode
-
-    There are no ``values``, ``log_probs`` or ``advantages``: REINFORCE's rollout computes none of them
-    (``log pi(a|s)``, and ``V(s)`` with a baseline, are evaluated with gradients in ``train()``). Episodes still
-    running are not part of the batch (:meth:`size` counts them).
-
-    **Memory** is proportional to the largest batch, never to the training length: the capacity doubles
-    when a column is full (amortized O(1) per step, no copy of the whole buffer at each step) and is
-    kept from batch to batch. An environment that never ends an episode would grow it without bound, so
-    ``max_steps`` caps the number of stored transitions and a :class:`RolloutLimitError` says so.
+    Every environment writes into its own column of a time-major array ``(capacity, n_envs, ...)``. A batch is
+    full once it holds at least ``n_episodes`` finished episodes and ``min_steps`` of their steps (episodes that
+    end at the same step are all kept). :meth:`compute_returns` then takes every finished episode out as the
+    training batch and computes its discounted returns; it never cuts an episode. Episodes still running in
+    other environments (``n_envs > 1``) move to the front of their column and go on in the next batch: no
+    transition is lost or used twice. The last batch is readable under the names of SB3's ``RolloutBuffer``
+    (``observations``, ``actions``, ``rewards``, ``returns``, ``episode_starts``; shapes in the docs, "Reading the
+    last batch from a callback"). The capacity doubles when a column is full and is kept from batch to batch;
+    ``max_steps`` caps the transitions stored, so an environment that never ends raises :class:`RolloutLimitError`.
 
     :param buffer_size: Initial capacity, in steps per environment (grows as needed)
     :param observation_space: Observation space

@@ -254,59 +254,17 @@ class ReinforcePolicy(ActorCriticPolicy):
 
 
 class ReinforceCnnPolicy(ReinforcePolicy):
-    """
-    CNN policy for REINFORCE (``NatureCNN`` features), see :class:`ReinforcePolicy` for the parameters.
-    """
+    """CNN policy for REINFORCE (``NatureCNN`` features), see :class:`ReinforcePolicy` for the parameters."""
 
-    def __init__(
-        self,
-        observation_space: spaces.Space,
-        action_space: spaces.Space,
-        lr_schedule: Schedule,
-        net_arch: list[int] | dict[str, list[int]] | None = None,
-        value_head: bool = True,
-        xavier_init: bool = False,
-        features_extractor_class: type[BaseFeaturesExtractor] = NatureCNN,
-        **kwargs: Any,
-    ):
-        super().__init__(
-            observation_space,
-            action_space,
-            lr_schedule,
-            net_arch=net_arch,
-            value_head=value_head,
-            xavier_init=xavier_init,
-            features_extractor_class=features_extractor_class,
-            **kwargs,
-        )
+    def __init__(self, *args: Any, features_extractor_class: type[BaseFeaturesExtractor] = NatureCNN, **kwargs: Any):
+        super().__init__(*args, features_extractor_class=features_extractor_class, **kwargs)
 
 
 class ReinforceMultiInputPolicy(ReinforcePolicy):
-    """
-    Policy for ``Dict`` observation spaces (``CombinedExtractor`` features), see :class:`ReinforcePolicy`.
-    """
+    """Policy for ``Dict`` observation spaces (``CombinedExtractor`` features), see :class:`ReinforcePolicy`."""
 
-    def __init__(
-        self,
-        observation_space: spaces.Dict,
-        action_space: spaces.Space,
-        lr_schedule: Schedule,
-        net_arch: list[int] | dict[str, list[int]] | None = None,
-        value_head: bool = True,
-        xavier_init: bool = False,
-        features_extractor_class: type[BaseFeaturesExtractor] = CombinedExtractor,
-        **kwargs: Any,
-    ):
-        super().__init__(
-            observation_space,
-            action_space,
-            lr_schedule,
-            net_arch=net_arch,
-            value_head=value_head,
-            xavier_init=xavier_init,
-            features_extractor_class=features_extractor_class,
-            **kwargs,
-        )
+    def __init__(self, *args: Any, features_extractor_class: type[BaseFeaturesExtractor] = CombinedExtractor, **kwargs: Any):
+        super().__init__(*args, features_extractor_class=features_extractor_class, **kwargs)
 
 
 MlpPolicy = ReinforcePolicy

@@ -1,3 +1,8 @@
+import inspect
+import math
+import os
+from collections.abc import Callable, Mapping
+from numbers import Integral, Real
 from typing import Any, ClassVar, TypeVar
 
 import numpy as np
@@ -6,97 +11,90 @@ from gymnasium import spaces
 from stable_baselines3.common.buffers import RolloutBuffer
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
-from stable_baselines3.common.policies import BasePolicy
+from stable_baselines3.common.policies import ActorCriticPolicy, BaseModel, BasePolicy
 from stable_baselines3.common.type_aliases import GymEnv, MaybeCallback, Schedule
-from stable_baselines3.common.utils import FloatSchedule, explained_variance, obs_as_tensor
+from stable_baselines3.common.utils import FloatSchedule, explained_variance, obs_as_tensor, update_learning_rate
 from stable_baselines3.common.vec_env import VecEnv
 from torch.nn import functional as F
 
 from sb3_reinforce.reinforce.buffers import DictEpisodeRolloutBuffer, EpisodeRolloutBuffer
-from sb3_reinforce.reinforce.finite_checks import check_step, check_update
-from sb3_reinforce.reinforce.hyperparameters import check_spaces, hyperparameter_defaults, validate_hyperparameters
-from sb3_reinforce.reinforce.native_memory import HeapTrimmer
-from sb3_reinforce.reinforce.persistence import SaveWithRandomState
 from sb3_reinforce.reinforce.policies import CnnPolicy, MlpPolicy, MultiInputPolicy, ReinforcePolicy
 from sb3_reinforce.reinforce.returns import leave_one_out_baseline, normalize_returns
-from sb3_reinforce.reinforce.value_fitting import ValueFitter, bootstrap_truncated
 
 SelfREINFORCE = TypeVar("SelfREINFORCE", bound="REINFORCE")
 
+BASELINES = (None, "value", "loo")
+#: Constructor arguments that are not hyperparameters: what is learned, from what, where, and SB3's build switch.
+NOT_HYPERPARAMETERS = frozenset({"policy", "env", "device", "_init_setup_model"})
 
-class REINFORCE(SaveWithRandomState, OnPolicyAlgorithm):
+
+class REINFORCE(OnPolicyAlgorithm):
     """
-    REINFORCE: Monte-Carlo policy gradient (Williams, 1992), optionally with a learned value baseline.
+    REINFORCE: Monte-Carlo policy gradient (Williams, 1992), optionally with a baseline.
 
     Paper: https://link.springer.com/article/10.1007/BF00992696
     Introduction: https://spinningup.openai.com/en/latest/spinningup/rl_intro3.html
 
-    The policy plays whole episodes, then takes one gradient step on
-    ``mean_t(-log pi(a_t|s_t) * A_t)``, where ``A_t`` is the discounted reward-to-go ``G_t``
-    (standardized over the batch by default), or ``G_t - V(s_t)`` with ``baseline="value"``.
-    A rollout always ends on episode boundaries; see :class:`~sb3_reinforce.reinforce.buffers.EpisodeRolloutBuffer`
-    for what happens to episodes still running in other environments when the batch is full.
+    The policy plays whole episodes, then takes one gradient step on ``mean_t(-log pi(a_t|s_t) * A_t)``, where
+    ``A_t`` is the discounted reward-to-go ``G_t`` (standardized over the batch by default), or ``G_t - b_t``
+    with a baseline. A rollout always ends on episode boundaries (see
+    :class:`~sb3_reinforce.reinforce.buffers.EpisodeRolloutBuffer` for episodes still running in other
+    environments when the batch is full).
 
-    The estimator is unbiased but has high variance. A baseline reduces it without adding bias: any ``b`` that
-    does not depend on the action ``a_t`` leaves the expected gradient unchanged, since
-    ``E[grad log pi(a|s) * b] = b * grad sum_a pi(a|s) = 0``. Two are offered: a learned ``V(s_t)``
-    (``baseline="value"``, fitted on earlier batches only when it is read, so it cannot depend on this batch's
-    actions) and a critic-free leave-one-out mean over the batch's other episodes (``baseline="loo"``).
-    Truncated episodes (time limits) are bootstrapped with ``gamma * V(s_T)`` when there is a value baseline,
-    and are treated as terminal otherwise (no estimate of the future exists).
+    A baseline ``b_t`` that does not depend on the action ``a_t`` leaves the expected gradient unchanged, since
+    ``E[grad log pi(a|s) * b] = b * grad sum_a pi(a|s) = 0``, and reduces its variance. Two are offered: a
+    learned ``V(s_t)`` (``baseline="value"``, fitted on earlier batches only when it is read) and the critic-free
+    leave-one-out mean over the batch's other episodes (``baseline="loo"``). Truncated episodes (time limits) are
+    bootstrapped with ``gamma * V(s_T)`` when there is a value baseline, and are treated as terminal otherwise.
+
+    A non-finite loss or gradient raises a ``FloatingPointError`` before the optimizer steps, so the weights are
+    never changed by it (:class:`~sb3_reinforce.safeguards.CheckFinite` names the environment and step that
+    produced a NaN or an inf).
 
     :param policy: The policy model to use (MlpPolicy, CnnPolicy, MultiInputPolicy, or a class)
     :param env: The environment to learn from (if registered in Gym, can be str)
     :param learning_rate: The learning rate, it can be a function of the current progress remaining (from 1 to 0)
-    :param n_episodes: Number of whole episodes to collect per environment per gradient step (the seed
-        used 1, with one environment). As SB3's ``n_steps``, it counts per environment: a batch holds at
-        least ``n_episodes * n_envs`` finished episodes (several may end at the same step, so a batch can
-        hold more).
-    :param min_steps: Minimum number of environment steps per gradient step, all environments together:
-        episodes are added to the batch until both ``n_episodes * n_envs`` episodes and ``min_steps`` steps
-        are reached (0: count episodes only)
+    :param n_episodes: Number of whole episodes to collect per environment per gradient step (the seed used 1,
+        with one environment). As SB3's ``n_steps``, it counts per environment: a batch holds at least
+        ``n_episodes * n_envs`` finished episodes (several may end at the same step, so a batch can hold more).
+    :param min_steps: Minimum number of environment steps per gradient step, all environments together: episodes
+        are added to the batch until both ``n_episodes * n_envs`` episodes and ``min_steps`` steps are reached
     :param gamma: Discount factor, in [0, 1]
-    :param baseline: ``None`` for plain REINFORCE (no value network is built), ``"value"`` for REINFORCE
-        with a learned state-value baseline ``V(s)`` trained by regression on the returns, or ``"loo"`` for the
-        critic-free leave-one-out baseline: for step ``t`` of an episode, the mean return ``G_t`` of the batch's
-        *other* episodes that lasted past step ``t`` (0 where none did; see
-        :func:`~sb3_reinforce.reinforce.returns.leave_one_out_baseline`). ``"loo"`` needs at least two episodes per batch
-        (``n_episodes * n_envs >= 2``), which is checked when the model is built.
+    :param baseline: ``None`` for plain REINFORCE (no value network is built), ``"value"`` for a learned
+        state-value baseline ``V(s)`` regressed on the returns, or ``"loo"`` for the leave-one-out baseline: for
+        step ``t`` of an episode, the mean ``G_t`` of the batch's *other* episodes that lasted past step ``t``
+        (see :func:`~sb3_reinforce.reinforce.returns.leave_one_out_baseline`; needs ``n_episodes * n_envs >= 2``)
     :param normalize_returns: Standardize the policy-gradient weights over the batch (returns without a
-        baseline, advantages ``G_t - V(s_t)`` with one). A batch of equal returns gives zero weights, never NaN.
+        baseline, advantages with one). A batch of equal returns gives zero weights, never NaN.
     :param ent_coef: Entropy coefficient for the loss calculation
-    :param vf_coef: Value function coefficient for the loss calculation (used only with ``baseline="value"``
-        and ``n_value_steps=0``)
+    :param vf_coef: Value function coefficient for the loss calculation (``baseline="value"`` with
+        ``n_value_steps=0`` only)
     :param n_value_steps: Gradient steps that fit the value baseline to each batch's returns, after the policy's
         one step, with an optimizer of their own (Spinning Up's VPG takes 80). 0 (default): the value head takes
-        one joint step with the policy on ``policy_loss + vf_coef * value_loss``, as A2C. Only with
-        ``baseline="value"``. Either way the policy takes one step per batch, with advantages computed from
-        ``V`` before it was fitted to this batch. With a shared features extractor (``CnnPolicy``'s default),
-        the value steps train the value layers only and the extractor learns from the policy loss.
-    :param value_learning_rate: Learning rate of the value steps (``n_value_steps > 0``), a number or a
-        schedule of the progress remaining; None (default): the policy's ``learning_rate``
-    :param max_grad_norm: The maximum value for the gradient clipping, or None (default) for no clipping.
-        Unlike A2C/PPO's 0.5, the default does not clip: with ``baseline="value"`` the critic's early
-        gradient (an MSE on raw returns) dominates a global norm, and clipping it starves the actor
-        (CartPole-v1, 5 seeds, steps to an evaluation mean of 475: clipped at 0.5, 4/5 solved within 60k,
-        median 18k; unclipped, 5/5, median 8k). Without a baseline, clipping at 0.5 was a little faster
-        (median 6k vs 10k steps). See ``benchmarks/grad_clip_ablation.py``. The seed did not clip.
+        one joint step with the policy on ``policy_loss + vf_coef * value_loss``, as A2C. ``baseline="value"``
+        only. With a shared features extractor (``CnnPolicy``'s default), the value steps train the value layers
+        only and the extractor learns from the policy loss.
+    :param value_learning_rate: Learning rate of the value steps (``n_value_steps > 0``), a number or a schedule
+        of the progress remaining; None (default): the policy's ``learning_rate``
+    :param max_grad_norm: The maximum value for the gradient clipping, or None (default) for no clipping: with
+        ``baseline="value"``, the critic's early gradient (an MSE on raw returns) dominates a global norm, and
+        clipping it at A2C/PPO's 0.5 starved the actor on CartPole (``benchmarks/grad_clip_ablation.py``)
     :param use_sde: Whether to use generalized State Dependent Exploration (gSDE)
         instead of action noise exploration (default: False)
     :param sde_sample_freq: Sample a new noise matrix every n steps when using gSDE
         Default: -1 (only sample at the beginning of the rollout)
-    :param max_rollout_steps: Most transitions the rollout buffer may hold (all environments together).
-        An environment that has not ended enough episodes by then raises ``RolloutLimitError`` instead of
-        exhausting memory: give it a time limit, or raise this cap (memory is about this many observations).
-    :param rollout_buffer_class: Rollout buffer class to use, an :class:`~sb3_reinforce.reinforce.buffers.EpisodeRolloutBuffer`
-        (or a subclass; SB3's fixed-length ``RolloutBuffer`` cannot hold whole episodes). If ``None``, it will be
-        automatically selected.
+    :param max_rollout_steps: Most transitions the rollout buffer may hold (all environments together): an
+        environment that has not ended enough episodes by then raises ``RolloutLimitError`` instead of exhausting
+        memory
+    :param rollout_buffer_class: Rollout buffer class to use, an
+        :class:`~sb3_reinforce.reinforce.buffers.EpisodeRolloutBuffer` or a subclass (SB3's fixed-length
+        ``RolloutBuffer`` cannot hold whole episodes). If ``None``, it will be automatically selected.
     :param rollout_buffer_kwargs: Keyword arguments to pass to the rollout buffer on creation.
     :param stats_window_size: Window size for the rollout logging, specifying the number of episodes to average
         the reported success rate, mean episode length, and mean reward over
     :param tensorboard_log: the log location for tensorboard (if None, no logging)
-    :param policy_kwargs: additional arguments to be passed to the policy on creation. See
-        :class:`~sb3_reinforce.reinforce.policies.ReinforcePolicy` (``net_arch``, ``activation_fn``, ``xavier_init``, ...)
+    :param policy_kwargs: additional arguments to be passed to the policy on creation, see
+        :class:`~sb3_reinforce.reinforce.policies.ReinforcePolicy`
     :param verbose: Verbosity level: 0 for no output, 1 for info messages (such as device or wrappers used), 2 for
         debug messages
     :param seed: Seed for the pseudo random generators
@@ -111,10 +109,6 @@ class REINFORCE(SaveWithRandomState, OnPolicyAlgorithm):
         "MultiInputPolicy": MultiInputPolicy,
     }
     rollout_buffer: EpisodeRolloutBuffer  # type: ignore[assignment]
-    #: Environment steps between two returns of the C heap's free memory to the OS (glibc ``malloc_trim``),
-    #: or None for never. Whole-episode batches allocate a new size at every update, and without this the
-    #: resident memory of a long run keeps growing (see :mod:`sb3_reinforce.reinforce.native_memory`).
-    heap_trim_interval: ClassVar[int | None] = 10_000
 
     def __init__(
         self,
@@ -144,8 +138,8 @@ class REINFORCE(SaveWithRandomState, OnPolicyAlgorithm):
         device: th.device | str = "auto",
         _init_setup_model: bool = True,
     ):
-        arguments = locals()  # every hyperparameter is checked, by the table derived from this signature
-        validate_hyperparameters({name: arguments[name] for name in hyperparameter_defaults(REINFORCE)})
+        arguments = locals()  # every hyperparameter is checked before anything is built
+        check_hyperparameters({name: arguments[name] for name in hyperparameter_defaults()})
         if policy_kwargs is not None and "value_head" in policy_kwargs:
             raise ValueError("Do not set `value_head` in policy_kwargs: use REINFORCE(baseline='value') or baseline=None")
         super().__init__(
@@ -183,7 +177,7 @@ class REINFORCE(SaveWithRandomState, OnPolicyAlgorithm):
             self._setup_model()
 
     def _setup_model(self) -> None:
-        check_spaces(self.observation_space, self.action_space)
+        _check_spaces(self.observation_space, self.action_space)
         if self.baseline == "loo" and self.n_episodes * self.n_envs < 2:
             raise ValueError(
                 f"baseline='loo' compares each episode with the other episodes of its batch, but a batch holds "
@@ -222,16 +216,19 @@ class REINFORCE(SaveWithRandomState, OnPolicyAlgorithm):
         )
         self.policy = self.policy.to(self.device)
         self._maybe_recommend_cpu("ReinforcePolicy")
-        self.value_fitter: ValueFitter | None = None
-        self.value_optimizer: th.optim.Optimizer | None = None  # saved and loaded by SB3 under this name
+        # The value steps' optimizer (n_value_steps > 0), over the parameters only V(s) uses; SB3 saves it by name.
+        self.value_optimizer: th.optim.Optimizer | None = None
         if self.n_value_steps > 0:
             value_lr = self.learning_rate if self.value_learning_rate is None else self.value_learning_rate
-            self.value_fitter = ValueFitter(self.policy, self.n_value_steps, FloatSchedule(value_lr), self.max_grad_norm)
-            self.value_optimizer = self.value_fitter.optimizer
-        self._heap_trimmer = HeapTrimmer(self.heap_trim_interval)
-
-    def _excluded_save_params(self) -> list[str]:
-        return [*super()._excluded_save_params(), "_heap_trimmer", "value_fitter"]
+            self.value_lr_schedule = FloatSchedule(value_lr)
+            modules = [self.policy.mlp_extractor.value_net, self.policy.value_net]
+            if not self.policy.share_features_extractor:
+                modules.append(self.policy.vf_features_extractor)
+            self.value_optimizer = self.policy.optimizer_class(  # type: ignore[call-arg]
+                [p for module in modules for p in module.parameters()],
+                lr=self.value_lr_schedule(1),
+                **self.policy.optimizer_kwargs,
+            )
 
     def _get_torch_save_params(self) -> tuple[list[str], list[str]]:
         state_dicts, variables = super()._get_torch_save_params()
@@ -282,8 +279,6 @@ class REINFORCE(SaveWithRandomState, OnPolicyAlgorithm):
         """
         assert self._last_obs is not None, "No previous observation was provided"
         assert isinstance(rollout_buffer, EpisodeRolloutBuffer), "REINFORCE needs an EpisodeRolloutBuffer"
-        # The last update's tensors are freed by now: give the heap's free pages back (every heap_trim_interval steps).
-        self._heap_trimmer.step(self.num_timesteps)
         # Switch to eval mode (this affects batch norm / dropout)
         self.policy.set_training_mode(False)
         n_steps = 0
@@ -316,12 +311,21 @@ class REINFORCE(SaveWithRandomState, OnPolicyAlgorithm):
                     clipped_actions = np.clip(actions, self.action_space.low, self.action_space.high)
 
             new_obs, rewards, dones, infos = env.step(clipped_actions)
-            check_step(new_obs, rewards, self.num_timesteps)
             self.num_timesteps += env.num_envs
             n_steps += 1
             self._update_info_buffer(infos, dones)
-            if self.baseline == "value":  # a truncated episode's return goes on as gamma * V(s_T) (SB3 GH#633)
-                rewards = bootstrap_truncated(self.policy, self.gamma, rewards, dones, infos, self.num_timesteps)
+
+            # Handle timeout by bootstrapping with value function (SB3 GH#633), when there is one: a truncated
+            # episode's return goes on as gamma * V(s_T). Without a value baseline it is treated as terminal.
+            if self.baseline == "value" and dones.any():
+                rewards = rewards.astype(np.float64)
+                for idx in np.flatnonzero(dones):
+                    terminal_obs = infos[idx].get("terminal_observation")
+                    if infos[idx].get("TimeLimit.truncated", False) and terminal_obs is not None:
+                        with th.no_grad():
+                            terminal_value = self.policy.predict_values(self.policy.obs_to_tensor(terminal_obs)[0])[0]
+                        rewards[idx] += self.gamma * terminal_value.item()
+
             rollout_buffer.add(self._last_obs, actions, rewards, dones)
             self._last_obs = new_obs
             self._last_episode_starts = dones
@@ -338,7 +342,8 @@ class REINFORCE(SaveWithRandomState, OnPolicyAlgorithm):
 
     def train(self) -> None:
         """
-        One gradient step on the batch of whole episodes in the rollout buffer.
+        One gradient step of the policy on the batch of whole episodes in the rollout buffer (and, with
+        ``n_value_steps``, the value baseline's steps after it).
         """
         # Switch to train mode (this affects batch norm / dropout)
         self.policy.set_training_mode(True)
@@ -373,28 +378,17 @@ class REINFORCE(SaveWithRandomState, OnPolicyAlgorithm):
         entropy_loss = -th.mean(-log_prob) if entropy is None else -th.mean(entropy)
         # The baseline regresses on the returns: L_V = mean_t (G_t - V(s_t))^2, in the same step as the policy
         # (n_value_steps=0), or in n_value_steps steps of its own after it.
-        joint_value_step = with_value and self.n_value_steps == 0
         value_loss = F.mse_loss(values, returns) if with_value else th.zeros((), device=returns.device)
         loss = policy_loss + self.ent_coef * entropy_loss
-        if joint_value_step:
+        if with_value and self.n_value_steps == 0:
             loss = loss + self.vf_coef * value_loss
 
         self.policy.optimizer.zero_grad()
         loss.backward()
-        grad_norm = check_update(
-            loss,
-            [p for group in self.policy.optimizer.param_groups for p in group["params"]],
-            self.policy.optimizer,
-            self.max_grad_norm,
-            "loss",
-            "Lower the learning rate, normalize the returns (normalize_returns=True) or scale the rewards (VecNormalize).",
-            self.num_timesteps,
-        )
+        grad_norm = self._clip_grad_norm(self.policy.optimizer, "loss")
         self.policy.optimizer.step()
-        if self.value_fitter is not None:
-            value_loss = self.value_fitter.fit(
-                batch.observations, returns, self._current_progress_remaining, self.num_timesteps
-            )
+        if self.value_optimizer is not None:
+            value_loss = self._fit_value(batch.observations, returns)
 
         self._n_updates += 1
         self.logger.record("train/n_updates", self._n_updates, exclude="tensorboard")
@@ -411,6 +405,55 @@ class REINFORCE(SaveWithRandomState, OnPolicyAlgorithm):
             )
         if hasattr(self.policy, "log_std"):
             self.logger.record("train/std", th.exp(self.policy.log_std).mean().item())
+
+    def _fit_value(self, observations: Any, returns: th.Tensor) -> th.Tensor:
+        """
+        ``n_value_steps`` steps of the value optimizer on ``L_V = mean_t (G_t - V(s_t))^2`` over the whole batch.
+
+        With the features extractor shared with the actor (SB3's default), the value steps do not change it: the
+        features are computed once, without a graph, and each step runs the critic's layers only (the same loss
+        and gradients as ``predict_values``, at a fraction of a CNN's cost).
+
+        :return: The last step's loss
+        """
+        assert self.value_optimizer is not None
+        update_learning_rate(self.value_optimizer, self.value_lr_schedule(self._current_progress_remaining))
+        policy = self.policy
+        predict_values: Callable[[], th.Tensor] = lambda: policy.predict_values(observations)  # noqa: E731
+        if policy.share_features_extractor and type(policy).predict_values in (
+            ActorCriticPolicy.predict_values,
+            ReinforcePolicy.predict_values,
+        ):
+            with th.no_grad():
+                features = BaseModel.extract_features(policy, observations, policy.vf_features_extractor)
+            predict_values = lambda: policy.value_net(policy.mlp_extractor.forward_critic(features))  # noqa: E731
+        for _ in range(self.n_value_steps):
+            value_loss = F.mse_loss(predict_values().flatten(), returns)
+            self.value_optimizer.zero_grad()
+            value_loss.backward()
+            self._clip_grad_norm(self.value_optimizer, "value loss")
+            self.value_optimizer.step()
+        return value_loss.detach()
+
+    def _clip_grad_norm(self, optimizer: th.optim.Optimizer, what: str) -> th.Tensor:
+        """
+        Clip the gradients of ``optimizer``'s parameters to ``max_grad_norm`` (None: measure their norm only, the
+        gradients scaled by exactly 1) and refuse a non-finite norm before the optimizer steps.
+
+        :return: The gradients' global norm before clipping
+        :raises FloatingPointError: naming the timestep; the gradients are zeroed and the weights unchanged
+        """
+        parameters = [p for group in optimizer.param_groups for p in group["params"]]
+        max_norm = math.inf if self.max_grad_norm is None else self.max_grad_norm
+        try:
+            return th.nn.utils.clip_grad_norm_(parameters, max_norm, error_if_nonfinite=True)
+        except RuntimeError as error:
+            optimizer.zero_grad()
+            raise FloatingPointError(
+                f"Non-finite gradient of the {what} at timestep {self.num_timesteps}: the update was skipped and the "
+                "weights are unchanged. Lower the learning rate, normalize the returns or scale the rewards "
+                "(VecNormalize); sb3_reinforce.safeguards.CheckFinite names the environment and step of a NaN/inf."
+            ) from error
 
     def learn(
         self: SelfREINFORCE,
@@ -441,3 +484,97 @@ class REINFORCE(SaveWithRandomState, OnPolicyAlgorithm):
             reset_num_timesteps=reset_num_timesteps,
             progress_bar=progress_bar,
         )
+
+
+def hyperparameter_defaults() -> dict[str, Any]:
+    """
+    REINFORCE's hyperparameters, derived from its constructor: every argument but ``NOT_HYPERPARAMETERS``, with
+    its default, in the constructor's order (the checks, the weights-only format and the zoo's search space read it).
+    """
+    parameters = inspect.signature(REINFORCE).parameters
+    return {name: p.default for name, p in parameters.items() if name not in NOT_HYPERPARAMETERS}
+
+
+def _is_int(value: Any) -> bool:
+    return isinstance(value, Integral) and not isinstance(value, bool)
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, Real) and not isinstance(value, bool) and math.isfinite(float(value))
+
+
+def _integer(minimum: int) -> tuple[Callable[[Any], bool], str]:
+    return (lambda value: _is_int(value) and value >= minimum), f"an integer >= {minimum}"
+
+
+_LEARNING_RATE = "a finite number >= 0 or a schedule (callable)"
+#: What each hyperparameter allows: (test, description for the error). rollout_buffer_class is checked when the
+#: buffer is built. A test holds the keys equal to :func:`hyperparameter_defaults`.
+ALLOWED_VALUES: dict[str, tuple[Callable[[Any], bool], str]] = {
+    "learning_rate": (lambda v: callable(v) or (_is_number(v) and v >= 0), _LEARNING_RATE),
+    "n_episodes": _integer(1),
+    "min_steps": _integer(0),
+    "gamma": (lambda v: _is_number(v) and 0 <= v <= 1, "a finite number in [0.0, 1.0]"),
+    "baseline": (lambda v: v in BASELINES, f"one of {BASELINES}"),
+    "normalize_returns": (lambda v: isinstance(v, (bool, np.bool_)), "True or False"),
+    "ent_coef": (lambda v: _is_number(v) and v >= 0, "a finite number >= 0"),
+    "vf_coef": (lambda v: _is_number(v) and v >= 0, "a finite number >= 0"),
+    "n_value_steps": _integer(0),
+    "value_learning_rate": (
+        lambda v: v is None or callable(v) or (_is_number(v) and v >= 0),
+        f"None (the policy's learning rate), {_LEARNING_RATE}",
+    ),
+    "max_grad_norm": (lambda v: v is None or (_is_number(v) and v > 0), "None (no clipping) or a finite number > 0"),
+    "use_sde": (lambda v: isinstance(v, (bool, np.bool_)), "True or False"),
+    "sde_sample_freq": _integer(-1),
+    "max_rollout_steps": _integer(1),
+    "rollout_buffer_class": (lambda v: True, "an EpisodeRolloutBuffer class"),
+    "rollout_buffer_kwargs": (lambda v: v is None or isinstance(v, dict), "None or a dict of keyword arguments"),
+    "stats_window_size": _integer(1),
+    "tensorboard_log": (lambda v: v is None or isinstance(v, (str, os.PathLike)), "None or a path"),
+    "policy_kwargs": (lambda v: v is None or isinstance(v, dict), "None or a dict of keyword arguments"),
+    "verbose": _integer(0),
+    "seed": (lambda v: v is None or (_is_int(v) and v >= 0), "None or an integer >= 0"),
+}
+
+
+def check_hyperparameters(values: Mapping[str, Any]) -> None:
+    """
+    Raise a ``ValueError`` naming the first invalid hyperparameter and the values it allows.
+
+    :param values: REINFORCE's hyperparameters by name (those missing are not checked)
+    """
+    unknown = sorted(set(values) - set(ALLOWED_VALUES))
+    if unknown:
+        raise ValueError(f"Unknown REINFORCE hyperparameters {unknown}: the allowed names are {sorted(ALLOWED_VALUES)}")
+    for name, value in values.items():
+        test, allowed = ALLOWED_VALUES[name]
+        if not test(value):
+            raise ValueError(f"`{name}` must be {allowed}, got {value!r}")
+    if values.get("n_value_steps", 0) and values.get("baseline") != "value":
+        raise ValueError(
+            f"`n_value_steps` ({values['n_value_steps']}) fits the value baseline: use it with baseline='value', "
+            f"got baseline={values.get('baseline')!r}"
+        )
+    min_steps, max_rollout_steps = values.get("min_steps", 0), values.get("max_rollout_steps", math.inf)
+    if min_steps > max_rollout_steps:
+        raise ValueError(f"`min_steps` ({min_steps}) cannot exceed `max_rollout_steps` ({max_rollout_steps})")
+
+
+def _check_spaces(observation_space: spaces.Space, action_space: spaces.Space) -> None:
+    """
+    Refuse ``Discrete``/``MultiDiscrete`` spaces whose ``start`` is not 0: SB3's preprocessing and action
+    distributions assume values from 0, so such spaces would fail deep inside torch (observations) or silently send
+    the environment actions outside its space (actions).
+    """
+    named = [("action space", action_space)]
+    if isinstance(observation_space, spaces.Dict):
+        named += [(f"observation space[{key!r}]", sub) for key, sub in observation_space.spaces.items()]
+    else:
+        named.append(("observation space", observation_space))
+    for name, space in named:
+        if isinstance(space, (spaces.Discrete, spaces.MultiDiscrete)) and np.any(np.asarray(space.start) != 0):
+            raise ValueError(
+                f"The {name} {space} has start={space.start}: SB3 policies only support Discrete/MultiDiscrete spaces "
+                "starting at 0. Shift it with a wrapper (e.g. gymnasium.wrappers.TransformObservation / TransformAction)."
+            )

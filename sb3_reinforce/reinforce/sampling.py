@@ -1,26 +1,19 @@
 """
-Fast action sampling for REINFORCE's rollouts.
+The rollout's action sampler: the same distributions as SB3's ``policy.get_distribution(obs).get_actions()``,
+without building ``torch.distributions`` objects at every step (4.5x to 10.6x faster per call,
+``benchmarks/sampler_cost.py``; ``log pi(a|s)`` is evaluated again, with gradients, in ``train()``).
 
-SB3 samples an action with ``policy.get_distribution(obs).get_actions()``: it builds ``torch.distributions``
-objects (argument validation, ``logsumexp`` normalization, ...) at every step, which costs several times
-the forward pass of a small actor. During a rollout REINFORCE only needs the sampled actions (``log pi(a|s)``
-is evaluated again, with gradients, in ``train()``), so :class:`FastSampler` does only this:
+1. One forward pass of the actor to the distribution's parameters: in NumPy, on views of the policy's own
+   parameters, for a plain MLP on a flat ``Box`` (``FlattenExtractor``, ``Linear``, ``Tanh``/``ReLU``); else its
+   torch modules under ``torch.inference_mode``.
+2. Noise from torch's global generator (the stream SB3 seeds), then:
 
-1. one forward pass of the actor to the distribution's parameters (logits, or Gaussian means). For a plain
-   MLP actor on a flat ``Box`` observation (``FlattenExtractor``, ``Linear`` layers, ``Tanh``/``ReLU``
-   activations) it runs in NumPy on views of the policy's own parameters (no copy: the optimizer's in-place
-   updates are seen); any other actor runs its torch modules under ``torch.inference_mode``;
-2. sampling from the parameters with noise drawn from torch's global generator (the stream SB3's
-   ``set_random_seed`` fixes and ``REINFORCE.save`` stores), with the same distributions as SB3's:
+   - categorical, logits ``l`` (``Discrete``, ``MultiDiscrete``): Gumbel-max ``a = argmax_i (l_i - log e_i)``,
+     ``e_i ~ Exp(1)``, which is exactly ``Categorical(softmax(l))``;
+   - Bernoulli (``MultiBinary``): ``a = 1[u < sigmoid(l)]``, ``u ~ U[0, 1)``;
+   - diagonal Gaussian (``Box``): ``a = mu + exp(log_std) * n``, ``n ~ N(0, 1)`` (clipped by the caller, as in SB3).
 
-   - ``Discrete`` / ``MultiDiscrete`` (categorical, logits ``l``): Gumbel-max,
-     ``a = argmax_i (l_i + g_i)`` with ``g_i = -log(e_i)``, ``e_i ~ Exp(1)``, which is exactly ``Categorical(softmax(l))``;
-   - ``MultiBinary`` (Bernoulli, logits ``l``): ``a = 1[u < sigmoid(l)]`` with ``u ~ U[0, 1)``;
-   - ``Box`` (diagonal Gaussian): ``a = mu + exp(log_std) * n`` with ``n ~ N(0, 1)``. Clipping to the bounds
-     (or unscaling when the policy squashes) is left to the caller, as in SB3.
-
-gSDE, and policies that change how the distribution is built, keep SB3's path (see
-:meth:`~sb3_reinforce.reinforce.policies.ReinforcePolicy.fast_sampler`).
+gSDE, and policies that change how the distribution is built, keep SB3's path.
 """
 
 from typing import Any
@@ -64,13 +57,9 @@ _NUMPY_ACTIVATIONS = {nn.Tanh: _tanh, nn.ReLU: _relu}
 
 class _Noise:
     """
-    Noise from torch's global generator, the one stream SB3 seeds (``set_random_seed``) and ``REINFORCE.save``
-    stores: a sampler holds no random state, so rebuilding it (every rollout, or when a stopped rollout
-    resumes) changes no draw, and an interrupted run continues exactly.
-
-    The draws are made in place into one preallocated tensor per shape (a NumPy view of it is returned, valid
-    until the next draw of that shape): the same values as ``th.empty(shape).exponential_()`` and co., at a
-    fraction of the cost of allocating a tensor at every step.
+    Noise from torch's global generator (a sampler holds no random state, so rebuilding it changes no draw), drawn
+    in place into one preallocated tensor per shape: the values of ``th.empty(shape).exponential_()`` and co.,
+    returned as a NumPy view valid until the next draw of that shape.
     """
 
     def __init__(self) -> None:

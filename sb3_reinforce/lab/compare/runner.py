@@ -47,6 +47,7 @@ from stable_baselines3.common.vec_env import VecEnv, sync_envs_normalization
 from sb3_reinforce.lab.compare.evaluation import EpisodeBatch, episode_batch
 from sb3_reinforce.lab.compare.experiment import build_run
 from sb3_reinforce.lab.compare.report import PER_RUN_DIR
+from sb3_reinforce.safeguards import load_with_random_state, save_with_random_state
 from sb3_reinforce.version import __version__
 
 __all__ = ["RESULT_COLUMNS", "Checkpoint", "ComparisonEvalCallback", "RunSpec", "code_version", "process_tree_cpu_s", "run"]
@@ -297,7 +298,7 @@ class Checkpoint:
         """Save the model and the counters (the JSON is removed first and written last)."""
         self.state_path.unlink(missing_ok=True)
         temporary_model = self.model_path.with_suffix(".tmp.zip")
-        model.save(temporary_model)
+        save_with_random_state(model, temporary_model)  # a resumed run draws what an uninterrupted one draws
         os.replace(temporary_model, self.model_path)
         vecnormalize = model.get_vec_normalize_env()
         if vecnormalize is not None:
@@ -350,7 +351,7 @@ class Checkpoint:
         :return: The restored model
         """
         env = model.get_env()
-        restored = type(model).load(self.model_path, env=env, device=model.device)
+        restored = load_with_random_state(type(model), self.model_path, env=env, device=model.device)
         vecnormalize = restored.get_vec_normalize_env()
         if vecnormalize is not None:
             with self.vecnormalize_path.open("rb") as f:

@@ -35,7 +35,6 @@ from rl_zoo3.utils import ALGOS
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 
-from sb3_reinforce import REINFORCE
 from sb3_reinforce.lab.envpool_vec_env import ENVPOOL, WrapperSpec, check_envpool_env, envpool_vec_env_class, split_wrappers
 from sb3_reinforce.lab.zoo.configs import CONFIG_NAMES, config_path
 from sb3_reinforce.lab.zoo.hyperparams_opt import NORMALIZE_OBSERVATIONS_KWARGS, suggest_n_envs, suggest_normalize_observations
@@ -51,8 +50,8 @@ from sb3_reinforce.lab.zoo.storage import (
     surplus_reason,
 )
 from sb3_reinforce.reinforce.buffers import RolloutLimitError
-from sb3_reinforce.reinforce.finite_checks import NonFiniteError
-from sb3_reinforce.reinforce.hyperparameters import hyperparameter_defaults, validate_hyperparameters
+from sb3_reinforce.reinforce.reinforce import check_hyperparameters, hyperparameter_defaults
+from sb3_reinforce.safeguards import TrimHeap
 
 __all__ = ["ALGO_NAME", "ReinforceExperimentManager", "ZooUsageError"]
 
@@ -110,8 +109,7 @@ def check_reinforce_values(hyperparams: dict[str, Any]) -> None:
 
     :param hyperparams: Constructor keyword arguments (as the zoo passes them)
     """
-    defaults = hyperparameter_defaults(REINFORCE)
-    validate_hyperparameters({name: hyperparams.get(name, default) for name, default in defaults.items()})
+    check_hyperparameters({name: hyperparams.get(name, default) for name, default in hyperparameter_defaults().items()})
 
 
 class ReinforceExperimentManager(ExperimentManager):
@@ -223,6 +221,8 @@ class ReinforceExperimentManager(ExperimentManager):
                 check_reinforce_values(processed)
             except ValueError as error:
                 raise ZooUsageError(f"{where}: {error}") from error
+            # Whole-episode batches change size at every update: give the freed heap back (see TrimHeap)
+            callbacks = [*callbacks, TrimHeap()]
         return processed, env_wrapper, callbacks, vec_env_wrapper
 
     def create_envs(self, n_envs: int, eval_env: bool = False, no_log: bool = False) -> VecEnv:
@@ -300,7 +300,7 @@ class ReinforceExperimentManager(ExperimentManager):
             self.normalize, self.normalize_kwargs = True, dict(NORMALIZE_OBSERVATIONS_KWARGS)
         try:
             return super().objective(trial)
-        except (NonFiniteError, RolloutLimitError) as error:
+        except (FloatingPointError, RolloutLimitError) as error:  # a non-finite update, an episode that never ends
             print(f"Trial {trial.number} pruned: {error}")
             raise optuna.exceptions.TrialPruned(str(error)) from error
         finally:

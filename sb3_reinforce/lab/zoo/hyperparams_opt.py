@@ -23,7 +23,7 @@ import optuna
 import torch as th
 from torch import nn
 
-from sb3_reinforce.reinforce.hyperparameters import validate_hyperparameters
+from sb3_reinforce.reinforce.reinforce import check_hyperparameters
 
 __all__ = [
     "ACTIVATIONS",
@@ -207,5 +207,5 @@ def sample_reinforce_params(
     kwargs = parse_zoo_entry(zoo_entry(suggest_reinforce_params(trial, search_normalization=False)))
     del kwargs["n_envs"]
     kwargs.pop("normalize", None)
-    validate_hyperparameters(kwargs)  # each searched name is one of REINFORCE's hyperparameters, each value valid
+    check_hyperparameters(kwargs)  # each searched name is one of REINFORCE's hyperparameters, each value valid
     return kwargs

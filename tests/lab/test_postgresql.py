@@ -35,7 +35,7 @@ from sb3_reinforce.lab.zoo.storage import (
 )
 from tests.postgres import PostgresServer, ServerUnavailable, postgres_server
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")

@@ -2,9 +2,9 @@
 Golden numbers: a fixed seed gives the same training, to the bit, before and after a refactoring.
 
 Each case trains REINFORCE for a few thousand steps from a fixed seed and compares every finished episode's
-return and a checksum of the final weights with the numbers in ``tests/golden.json``, produced by the code of
+return and a checksum of the final weights with the numbers in ``tests/algorithm/golden.json``, produced by the code of
 commit 6ba24a4 (before the package was reshaped for issue 46) with ``python -m tests.test_golden >
-tests/golden.json``. A change that moves one draw of the random generators, one floating-point operation of the
+tests/algorithm/golden.json``. A change that moves one draw of the random generators, one floating-point operation of the
 loss or one step of the rollout changes them. Update them only for a change meant to alter training, and say so
 in its commit.
 """
@@ -44,7 +44,7 @@ def train(name: str) -> dict[str, Any]:
     return {"n_timesteps": model.num_timesteps, "returns": returns, "weights_checksum": checksum}
 
 
-#: Recorded at commit 6ba24a4 (see the module docstring): tests/golden.json
+#: Recorded at commit 6ba24a4 (see the module docstring): tests/algorithm/golden.json
 GOLDEN: dict[str, dict[str, Any]] = json.loads((pathlib.Path(__file__).parent / "golden.json").read_text())
 
 
@@ -58,6 +58,6 @@ def test_same_seed_same_training(name: str) -> None:
     assert result["weights_checksum"] == expected["weights_checksum"]
 
 
-if __name__ == "__main__":  # record the numbers: python -m tests.test_golden > tests/golden.json
+if __name__ == "__main__":  # record the numbers: python -m tests.algorithm.test_golden > tests/algorithm/golden.json
     th.set_num_threads(1)
     json.dump({name: train(name) for name in sorted(CASES)}, sys.stdout, indent=1)

@@ -241,7 +241,7 @@ def test_value_steps_on_cached_features_match_the_full_network() -> None:
     for model, expected_calls in ((fast, 1), (full, 5)):
         calls: list[int] = []
         hook = model.policy.features_extractor.register_forward_hook(lambda *args, calls=calls: calls.append(1))
-        model.value_fitter.fit(observations, returns, 1.0, model.num_timesteps)
+        model._fit_value(observations, returns)
         hook.remove()
         assert len(calls) == expected_calls
 

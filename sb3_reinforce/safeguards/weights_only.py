@@ -7,7 +7,7 @@ loading such a file runs whatever code its author put in it. Only load ``.zip`` 
 :func:`save_weights` / :func:`load_weights` write and read a different file, a zip archive with:
 
 - ``config.json``: every hyperparameter (the table of
-  :func:`~sb3_reinforce.reinforce.hyperparameters.hyperparameter_defaults`), the observation and action
+  :func:`~sb3_reinforce.reinforce.reinforce.hyperparameter_defaults`), the observation and action
   spaces described in JSON, the policy by its alias (``"MlpPolicy"``, ...), ``policy_kwargs`` limited to
   JSON values and names from fixed lists (activation function, optimizer, features extractor);
 - ``weights.pt``: the policy's ``state_dict`` and the optimizer's, read with ``torch.load(weights_only=True)``,
@@ -34,11 +34,9 @@ from stable_baselines3.common.type_aliases import GymEnv
 from torch import nn
 
 from sb3_reinforce.reinforce.buffers import DictEpisodeRolloutBuffer, EpisodeRolloutBuffer
-from sb3_reinforce.reinforce.hyperparameters import hyperparameter_defaults
-from sb3_reinforce.reinforce.model_file import CorruptModelFileError
-from sb3_reinforce.reinforce.reinforce import REINFORCE
+from sb3_reinforce.reinforce.reinforce import REINFORCE, hyperparameter_defaults
 
-__all__ = ["UnsafeFileError", "load_weights", "save_weights"]
+__all__ = ["CorruptModelFileError", "UnsafeFileError", "load_weights", "save_weights"]
 
 FORMAT = "sb3-reinforce-weights"
 #: 2: every hyperparameter, under "hyperparameters". 1 (still read): a fixed list of them, which lacked
@@ -63,6 +61,10 @@ ROLLOUT_BUFFERS: dict[str, type[EpisodeRolloutBuffer]] = {
 }
 #: Stored as numbers, or refused: a schedule (a callable) is code.
 _LEARNING_RATES = ("learning_rate", "value_learning_rate")
+
+
+class CorruptModelFileError(ValueError):
+    """A weights-only file is truncated, corrupted, or not a weights-only file at all."""
 
 
 class UnsafeFileError(ValueError):
@@ -237,7 +239,7 @@ def save_weights(model: REINFORCE, path: str | pathlib.Path) -> None:
         "format_version": FORMAT_VERSION,
         "algorithm": "REINFORCE",
         "policy": alias,
-        "hyperparameters": {name: _hyperparameter_to_json(model, name) for name in hyperparameter_defaults(REINFORCE)},
+        "hyperparameters": {name: _hyperparameter_to_json(model, name) for name in hyperparameter_defaults()},
         "observation_space": space_to_json(model.observation_space),
         "action_space": space_to_json(model.action_space),
         "num_timesteps": int(model.num_timesteps),
@@ -255,7 +257,7 @@ def save_weights(model: REINFORCE, path: str | pathlib.Path) -> None:
 
 def _read_hyperparameters(path: str | pathlib.Path, config: dict[str, Any]) -> dict[str, Any]:
     """The hyperparameters of a weights-only file's ``config.json``, a version 1 file's missing ones at their defaults."""
-    defaults = hyperparameter_defaults(REINFORCE)
+    defaults = hyperparameter_defaults()
     hyperparameters = config.get("hyperparameters")
     if not isinstance(hyperparameters, dict) or set(hyperparameters) - set(defaults):
         raise UnsafeFileError(f"{path}: hyperparameters must be a JSON object with keys among {sorted(defaults)}")

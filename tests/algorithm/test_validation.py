@@ -7,8 +7,8 @@ import pytest
 import torch as th
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from sb3_reinforce import REINFORCE, NonFiniteError
-from sb3_reinforce.reinforce.finite_checks import check_step, total_grad_norm
+from sb3_reinforce import REINFORCE
+from sb3_reinforce.safeguards import CheckFinite, NonFiniteError
 from tests.envs import CountingEnv
 
 
@@ -69,12 +69,26 @@ class BrokenEnv(CountingEnv):
 
 
 @pytest.mark.parametrize("what", ["reward", "obs"])
-def test_non_finite_env_output_raises(what: str) -> None:
+@pytest.mark.parametrize("check_finite", [True, False])
+def test_non_finite_env_output_raises(what: str, check_finite: bool) -> None:
+    # With CheckFinite, the error names the env and the step it came from; without it, REINFORCE refuses the
+    # non-finite gradient it makes. The weights are unchanged either way.
     model = REINFORCE("MlpPolicy", DummyVecEnv([lambda: BrokenEnv(what)]), seed=0)
     before = [p.detach().clone() for p in model.policy.parameters()]
-    with pytest.raises(NonFiniteError, match=f"non-finite {'reward' if what == 'reward' else 'observation'}"):
-        model.learn(100)
+    if check_finite:
+        with pytest.raises(NonFiniteError, match=f"Environment 0 returned a non-finite {what.replace('obs', 'observation')}"):
+            model.learn(2000, callback=CheckFinite())
+    else:
+        with pytest.raises(FloatingPointError, match="weights are unchanged"):
+            model.learn(2000)
     assert all(th.equal(a, b) for a, b in zip(before, model.policy.parameters(), strict=True))
+
+
+def _check_step(new_obs: object, rewards: np.ndarray) -> None:
+    callback = CheckFinite()
+    callback.init_callback(REINFORCE("MlpPolicy", "CartPole-v1"))
+    callback.update_locals({"new_obs": new_obs, "rewards": rewards, "infos": [{} for _ in rewards]})
+    callback.on_step()
 
 
 def test_finite_but_huge_env_output_is_accepted() -> None:
@@ -82,14 +96,14 @@ def test_finite_but_huge_env_output_is_accepted() -> None:
     # taken for a NaN/inf (the exact check after them finds every value finite).
     huge_obs, huge_rewards = np.full((2, 4), 3e38, dtype=np.float32), np.full(2, 1.7e308)
     assert not np.isfinite(huge_obs.sum()) and not np.isfinite(huge_rewards.sum())  # the sums overflow
-    check_step(huge_obs, huge_rewards, 0)  # no error
-    check_step({"a": huge_obs, "b": np.zeros((2, 1), dtype=np.uint8)}, huge_rewards, 0)
+    _check_step(huge_obs, huge_rewards)  # no error
+    _check_step({"a": huge_obs, "b": np.zeros((2, 1), dtype=np.uint8)}, huge_rewards)
     # Control: one NaN among the huge values is found
     huge_obs[1, 2] = math.nan
     with pytest.raises(NonFiniteError, match="Environment 1 returned a non-finite observation"):
-        check_step(huge_obs, huge_rewards, 0)
+        _check_step(huge_obs, huge_rewards)
     with pytest.raises(NonFiniteError, match="key 'a'"):
-        check_step({"a": huge_obs, "b": np.zeros((2, 1), dtype=np.uint8)}, huge_rewards, 0)
+        _check_step({"a": huge_obs, "b": np.zeros((2, 1), dtype=np.uint8)}, huge_rewards)
 
 
 def test_overflowing_loss_leaves_weights_unchanged() -> None:
@@ -100,7 +114,7 @@ def test_overflowing_loss_leaves_weights_unchanged() -> None:
 
     model = REINFORCE("MlpPolicy", DummyVecEnv([lambda: HugeReward(0, (20,))]), normalize_returns=False, seed=0)
     before = [p.detach().clone() for p in model.policy.parameters()]
-    with pytest.raises(NonFiniteError, match="weights are unchanged"):
+    with pytest.raises(FloatingPointError, match="weights are unchanged"):
         model.learn(100)
     assert all(th.equal(a, b) for a, b in zip(before, model.policy.parameters(), strict=True))
 
@@ -109,18 +123,3 @@ def test_zero_variance_returns_stay_finite() -> None:
     # One-step episodes with equal rewards: every standardized return is 0, no NaN.
     model = REINFORCE("MlpPolicy", DummyVecEnv([lambda: CountingEnv(0, (1,))]), n_episodes=3, seed=0).learn(60)
     assert all(np.isfinite(p.detach().numpy()).all() for p in model.policy.parameters())
-
-
-@pytest.mark.parametrize("torch_has_get_total_norm", [True, False])
-def test_unclipped_grad_norm_equals_clip_grad_norms(torch_has_get_total_norm: bool, monkeypatch) -> None:
-    # Without clipping, the logged and checked gradient norm is computed without clip_grad_norm_ (torch < 2.6
-    # has no get_total_norm: the fallback must agree too), and non-finite gradients still show in it.
-    if not torch_has_get_total_norm:
-        monkeypatch.delattr(th.nn.utils, "get_total_norm", raising=False)
-    net = th.nn.Sequential(th.nn.Linear(4, 8), th.nn.Tanh(), th.nn.Linear(8, 2), th.nn.Linear(2, 1))
-    net[3].requires_grad_(False)  # a parameter without gradient is skipped, as clip_grad_norm_ does
-    net(th.randn(5, 4)).sum().backward()
-    expected = th.nn.utils.clip_grad_norm_(net.parameters(), float("inf"))
-    assert th.allclose(total_grad_norm(net.parameters()), expected, rtol=1e-6)
-    net[0].weight.grad[0, 0] = math.nan
-    assert not th.isfinite(total_grad_norm(net.parameters()))

@@ -29,7 +29,7 @@ from sb3_reinforce.lab.zoo.trained_agents import TRAINED_AGENTS, agents_folder, 
 
 matplotlib.use("Agg")  # plot_train ends with plt.show()
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 ENV_ID = "CartPole-v1"
 SEEDS = (0, 1)
 

@@ -10,7 +10,7 @@ import pytest
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 from sb3_reinforce import REINFORCE
-from sb3_reinforce.lab.env_errors import EnvError, EnvWorkerDiedError, make_safe_vec_env
+from sb3_reinforce.safeguards.env_errors import EnvError, EnvWorkerDiedError, make_safe_vec_env
 from tests.envs import CountingEnv
 
 # fork: fast to start under pytest. It is also the hardest case for a dead worker: the other workers
@@ -85,7 +85,7 @@ torch.set_num_threads(1)
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import SubprocVecEnv
 from sb3_reinforce import REINFORCE
-from sb3_reinforce.lab.env_errors import EnvWorkerDiedError, make_safe_vec_env
+from sb3_reinforce.safeguards.env_errors import EnvWorkerDiedError, make_safe_vec_env
 from tests.envs import CountingEnv
 
 class Kill(BaseCallback):
@@ -110,7 +110,7 @@ if __name__ == "__main__":
 @pytest.mark.parametrize("n_envs, victim", [(1, 0), (3, 1)])
 def test_killed_worker_clear_error_no_hang(n_envs: int, victim: int) -> None:
     """A worker killed mid-run: a clear error naming it, in bounded time (the harness's timeout stops a hang)."""
-    root = str(__import__("pathlib").Path(__file__).resolve().parents[1])
+    root = str(__import__("pathlib").Path(__file__).resolve().parents[2])
     code = textwrap.dedent(KILL_SCENARIO).format(root=root, victim=victim, n_envs=n_envs, start_method="fork")
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stderr

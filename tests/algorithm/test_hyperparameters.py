@@ -9,8 +9,14 @@ import pytest
 import torch as th
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from sb3_reinforce import REINFORCE, EpisodeRolloutBuffer, load_weights, save_weights
-from sb3_reinforce.reinforce.hyperparameters import CHECKS, NOT_HYPERPARAMETERS, hyperparameter_defaults
+from sb3_reinforce import REINFORCE, EpisodeRolloutBuffer
+from sb3_reinforce.reinforce.reinforce import (
+    ALLOWED_VALUES,
+    NOT_HYPERPARAMETERS,
+    check_hyperparameters,
+    hyperparameter_defaults,
+)
+from sb3_reinforce.safeguards import load_weights, save_weights
 
 #: A value other than the default for every hyperparameter (valid together; Pendulum, for gSDE).
 NON_DEFAULTS = {
@@ -44,13 +50,13 @@ def _setting(model: REINFORCE, name: str) -> object:
 
 def test_the_table_is_the_signature() -> None:
     parameters = inspect.signature(REINFORCE).parameters
-    assert list(hyperparameter_defaults(REINFORCE)) == [name for name in parameters if name not in NOT_HYPERPARAMETERS]
-    assert hyperparameter_defaults(REINFORCE)["n_value_steps"] == 0
-    assert set(CHECKS) == set(hyperparameter_defaults(REINFORCE))  # every hyperparameter is checked
+    assert list(hyperparameter_defaults()) == [name for name in parameters if name not in NOT_HYPERPARAMETERS]
+    assert hyperparameter_defaults()["n_value_steps"] == 0
+    assert list(ALLOWED_VALUES) == list(hyperparameter_defaults())  # every hyperparameter is checked
 
 
 def test_non_defaults_cover_every_hyperparameter() -> None:
-    defaults = hyperparameter_defaults(REINFORCE)
+    defaults = hyperparameter_defaults()
     assert set(NON_DEFAULTS) == set(defaults), "a new constructor argument needs a non-default value here"
     assert all(NON_DEFAULTS[name] != default for name, default in defaults.items())
 
@@ -105,7 +111,5 @@ def test_weights_only_file_of_version_1_loads_with_a_warning(tmp_path: pathlib.P
 
 
 def test_unknown_hyperparameter_is_refused_by_name() -> None:
-    from sb3_reinforce.reinforce.hyperparameters import validate_hyperparameters
-
     with pytest.raises(ValueError, match=r"Unknown REINFORCE hyperparameters \['n_steps'\]"):
-        validate_hyperparameters({"n_steps": 5})
+        check_hyperparameters({"n_steps": 5})

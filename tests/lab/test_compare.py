@@ -48,7 +48,7 @@ from sb3_reinforce.lab.stats import (
     solve_threshold,
 )
 from sb3_reinforce.version import __version__
-from tests.test_compare_cluster import assert_localhost_only
+from tests.lab.test_compare_cluster import assert_localhost_only
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -132,7 +132,7 @@ def test_zoo_entries_read_as_the_zoo_reads_them() -> None:
     assert {"reinforce", "ppo", "a2c", "trpo"} <= set(known_algos())
 
 
-@pytest.mark.parametrize("config", sorted(Path(__file__).parent.parent.glob("benchmarks/configs/*.yml")), ids=lambda p: p.name)
+@pytest.mark.parametrize("config", sorted(Path(__file__).parents[2].glob("benchmarks/configs/*.yml")), ids=lambda p: p.name)
 def test_benchmark_configs_load_and_build(config: Path, tmp_path: Path) -> None:
     # The committed benchmark configs are read again by every run of a resumed comparison: each entry must
     # parse and build its model through the zoo.
@@ -218,7 +218,7 @@ def test_tiny_compare_on_car_racing(tmp_path: Path) -> None:
     # the evaluation runs on the standard env (1,000 frames an episode).
     import yaml
 
-    shipped = yaml.load((Path(__file__).parents[1] / "zoo_configs" / "reinforce.yml").read_text(), Loader=yaml.UnsafeLoader)
+    shipped = yaml.load((Path(__file__).parents[2] / "zoo_configs" / "reinforce.yml").read_text(), Loader=yaml.UnsafeLoader)
     entry = {**shipped["CarRacing-v3"], "n_envs": 2, "env_kwargs": {"max_episode_steps": 40}}
     config = tmp_path / "car_racing.yml"
     config.write_text(yaml.dump({"CarRacing-v3": entry}))
@@ -290,7 +290,7 @@ def test_tiny_compare_with_env_kwargs(tmp_path: Path) -> None:
         (["--device", "cuda:99"], "device 'cuda:99': PyTorch"),  # a GPU this machine lacks, whatever it has
         (
             ["--env", "MountainCarContinuous-v0", "--algos", "reinforce"],
-            "has no entry for MountainCarContinuous-v0 (it has: Acrobot-v1, ",  # the list: tests/test_zoo.py
+            "has no entry for MountainCarContinuous-v0 (it has: Acrobot-v1, ",  # the list: tests/lab/test_zoo.py
         ),
         (
             ["--env", "MountainCarContinuous-v0", "--algos", "reinforce"],
@@ -311,7 +311,7 @@ def test_bad_input_fails_before_training(
 
 
 # the verification folders with a finished run (results.csv is written once a run has finished)
-VERIFIED = sorted(p.parent for p in Path(__file__).resolve().parents[1].glob("benchmarks/results/verify_*/results.csv"))
+VERIFIED = sorted(p.parent for p in Path(__file__).resolve().parents[2].glob("benchmarks/results/verify_*/results.csv"))
 
 
 @pytest.mark.parametrize("folder", VERIFIED, ids=str)

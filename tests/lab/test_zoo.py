@@ -41,7 +41,7 @@ if sys.version_info >= (3, 11):
 else:  # pytest depends on tomli before Python 3.11
     import tomli as tomllib
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 CONFIGS = {name: REPO / "zoo_configs" / f"{name}.yml" for name in ("reinforce", "reinforce_seed")}
 ENTRIES = [(name, env_id) for name, path in CONFIGS.items() for env_id in yaml.safe_load(path.read_text())]
 REQUIRED_ENVS = {

@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 import torch as th
 from gymnasium import spaces
-from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.utils import LinearSchedule
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from sb3_reinforce import REINFORCE
+from sb3_reinforce.safeguards import load_with_random_state, save_with_random_state
 
 LENGTH = 5  # every episode of ChainEnv lasts 5 steps: updates (n_envs=1, n_episodes=1) happen every 5 steps
 
@@ -133,19 +133,20 @@ def test_interrupted_run_resumes_in_process_exactly(how: str, n_envs: int) -> No
 def test_save_load_resume_equals_uninterrupted_run(tmp_path: pathlib.Path, baseline: str | None) -> None:
     """
     N steps, save, load, M more steps == N + M steps in one go (deterministic env, same seed), when the save
-    happens between updates: the saved random-generator states make the resumed run draw the same actions.
+    happens between updates: the random-generator states saved with it (sb3_reinforce.safeguards) make the
+    resumed run draw the same actions.
     """
     n, m = 12 * LENGTH, 10 * LENGTH
     reference = make_model(make_env(), baseline).learn(n + m)
 
-    make_model(make_env(), baseline).learn(n).save(tmp_path / "model.zip")
-    model = REINFORCE.load(tmp_path / "model.zip", env=make_env())
+    save_with_random_state(make_model(make_env(), baseline).learn(n), tmp_path / "model.zip")
+    model = load_with_random_state(REINFORCE, tmp_path / "model.zip", env=make_env())
     assert model.num_timesteps == n and model._n_updates == n // LENGTH
     model.learn(m, reset_num_timesteps=False)
     assert_same(state(model), state(reference))
 
     # SB3's own load reseeds the generators from `seed`: the resumed run then draws other actions.
-    plain = BaseAlgorithm.load.__func__(REINFORCE, tmp_path / "model.zip", env=make_env())  # type: ignore[attr-defined]
+    plain = REINFORCE.load(tmp_path / "model.zip", env=make_env())
     plain.learn(m, reset_num_timesteps=False)
     assert not all(th.equal(a, b) for a, b in zip(state(plain)["params"], state(reference)["params"], strict=True))
 

@@ -12,7 +12,7 @@ import pandas as pd
 import torch as th
 import yaml
 
-BENCHMARKS = Path(__file__).parent.parent / "benchmarks"
+BENCHMARKS = Path(__file__).parents[2] / "benchmarks"
 
 
 def load(name: str) -> ModuleType:
@@ -99,7 +99,7 @@ def test_tune_tiny_budget(tmp_path: Path) -> None:
         "- {learning_rate: 0.003, lr_schedule: linear, baseline: value, n_value_steps: 5, value_learning_rate: 0.001}\n"
     )
     study_dir = tmp_path / "study"
-    args = ["--env", "CartPole-v1", "--base-config", str(Path(__file__).parents[1] / "zoo_configs" / "reinforce.yml")]
+    args = ["--env", "CartPole-v1", "--base-config", str(Path(__file__).parents[2] / "zoo_configs" / "reinforce.yml")]
     args += ["--study-dir", str(study_dir), "--budget", "600", "--eval-freq", "200", "--eval-episodes", "2"]
     args += ["--score-last", "2", "--max-trials", "2", "--fixed", str(tmp_path / "fixed.yml")]
     args += ["--enqueue", str(tmp_path / "enqueue.yml"), "--sampler-seed", "0"]
@@ -134,7 +134,7 @@ def test_tune_reruns_interrupted_trials(tmp_path: Path) -> None:
     interrupted = study.ask()  # a worker that was stopped mid-trial leaves it RUNNING
     params = tune.suggest_reinforce_params(interrupted)
     # ... after finishing its first seed, in its folder
-    base_config = Path(__file__).parents[1] / "zoo_configs" / "reinforce.yml"
+    base_config = Path(__file__).parents[2] / "zoo_configs" / "reinforce.yml"
     trial_dir = study_dir / "trials" / "000"
     trial_dir.mkdir(parents=True)
     config = trial_dir / "config.yml"
@@ -162,7 +162,7 @@ def test_tune_enqueues_each_file_once(tmp_path: Path) -> None:
     for name, learning_rate in (("first.yml", 0.001), ("second.yml", 0.002)):
         (tmp_path / name).write_text(f"- {{learning_rate: {learning_rate}}}\n")
     study_dir = tmp_path / "study"
-    args = ["--env", "CartPole-v1", "--base-config", str(Path(__file__).parents[1] / "zoo_configs" / "reinforce.yml")]
+    args = ["--env", "CartPole-v1", "--base-config", str(Path(__file__).parents[2] / "zoo_configs" / "reinforce.yml")]
     args += ["--study-dir", str(study_dir), "--study-name", "s", "--budget", "200", "--eval-freq", "200"]
     args += ["--eval-episodes", "1", "--score-last", "1", "--max-trials", "0", "--enqueue", str(tmp_path / "first.yml")]
     tune.main(args)  # max-trials 0: queues, trains nothing

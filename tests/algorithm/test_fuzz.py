@@ -1,9 +1,11 @@
 """
 Fuzzing: hypothesis-generated environments run through ``learn()``: they train with finite parameters,
-or raise the documented error (``NonFiniteError`` when the environment emits NaN/inf).
+or raise the documented error when the environment emits NaN/inf (``NonFiniteError`` from the ``CheckFinite``
+callback; without it, REINFORCE's ``FloatingPointError`` at the update, the weights unchanged).
 
 CI runs ``SB3_REINFORCE_FUZZ_EXAMPLES`` examples (default 30, derandomized so CI is reproducible). For a longer
-random campaign: ``SB3_REINFORCE_FUZZ_EXAMPLES=500 python -m pytest tests/test_fuzz.py --hypothesis-show-statistics``.
+random campaign:
+``SB3_REINFORCE_FUZZ_EXAMPLES=500 python -m pytest tests/algorithm/test_fuzz.py --hypothesis-show-statistics``.
 """
 
 import math
@@ -18,7 +20,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from sb3_reinforce import REINFORCE, NonFiniteError
+from sb3_reinforce import REINFORCE
+from sb3_reinforce.safeguards import CheckFinite, NonFiniteError
 
 N_EXAMPLES = int(os.environ.get("SB3_REINFORCE_FUZZ_EXAMPLES", "30"))
 
@@ -131,7 +134,7 @@ def test_fuzz_learn(config: tuple[spaces.Space, spaces.Space, dict[str, Any], di
     policy = "MultiInputPolicy" if isinstance(obs_space, spaces.Dict) else "MlpPolicy"
     model = REINFORCE(policy, venv, policy_kwargs=dict(net_arch=[8]), seed=cfg["seed"], **hyper)
     try:
-        model.learn(100)
+        model.learn(100, callback=CheckFinite())
     except NonFiniteError as error:
         # The documented error, and only for the env's NaN/inf (the rewards go up to 30 * 1e8: no overflow)
         injected = venv.envs[0].injected  # type: ignore[attr-defined]
@@ -144,4 +147,26 @@ def test_fuzz_learn(config: tuple[spaces.Space, spaces.Space, dict[str, Any], di
     used = injected in ("reward", "obs") or (injected == "terminal_obs" and cfg["truncate"] and hyper["baseline"] == "value")
     assert not used, f"a NaN/inf ({injected}) from the env went unnoticed"
     assert model.num_timesteps >= 100 and model._n_updates >= 1
+    assert all(th.isfinite(p).all() for p in model.policy.parameters())
+
+
+@settings(
+    max_examples=N_EXAMPLES,
+    deadline=None,
+    derandomize="SB3_REINFORCE_FUZZ_EXAMPLES" not in os.environ,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+)
+@given(configs())
+def test_fuzz_learn_without_check(config: tuple[spaces.Space, spaces.Space, dict[str, Any], dict[str, Any]]) -> None:
+    # Without CheckFinite, a NaN/inf the env emits is refused by REINFORCE itself at the update it would spoil
+    # (a FloatingPointError, the weights unchanged), or is never used: the weights stay finite either way.
+    obs_space, action_space, cfg, hyper = config
+    venv = DummyVecEnv([lambda i=i: FuzzEnv(obs_space, action_space, cfg, i) for i in range(cfg["n_envs"])])
+    policy = "MultiInputPolicy" if isinstance(obs_space, spaces.Dict) else "MlpPolicy"
+    model = REINFORCE(policy, venv, policy_kwargs=dict(net_arch=[8]), seed=cfg["seed"], **hyper)
+    try:
+        model.learn(100)
+    except FloatingPointError as error:
+        assert venv.envs[0].injected is not None, f"a non-finite update without a NaN/inf from the env: {error}"  # type: ignore[attr-defined]
+        assert "weights are unchanged" in str(error)
     assert all(th.isfinite(p).all() for p in model.policy.parameters())

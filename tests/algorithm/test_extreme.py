@@ -11,7 +11,8 @@ from gymnasium import spaces
 from stable_baselines3.common.logger import Logger
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from sb3_reinforce import REINFORCE, NonFiniteError
+from sb3_reinforce import REINFORCE
+from sb3_reinforce.safeguards import CheckFinite, NonFiniteError
 from tests.envs import CountingEnv
 
 
@@ -136,10 +137,10 @@ def test_non_finite_names_env_and_leaves_weights(bad: str) -> None:
     model = REINFORCE("MlpPolicy", env, seed=0)
     before = [p.detach().clone() for p in model.policy.parameters()]
     what = "reward" if bad.startswith("reward") else "observation"
-    with pytest.raises(NonFiniteError, match=f"Environment 1 returned a non-finite {what}"):
-        model.learn(100)
+    with pytest.raises(NonFiniteError, match=f"Environment 1 returned a non-finite {what} at timestep 6"):
+        model.learn(100, callback=CheckFinite())
     assert all(th.equal(a, b) for a, b in zip(before, model.policy.parameters(), strict=True))
-    assert model.rollout_buffer.size() == 2 * 2, "the bad step was not stored"
+    assert model._n_updates == 0 and model.num_timesteps == 2 * 3, "stopped at the bad step, before any update"
 
 
 def test_non_finite_terminal_observation_when_bootstrapped() -> None:
@@ -152,7 +153,7 @@ def test_non_finite_terminal_observation_when_bootstrapped() -> None:
 
     model = REINFORCE("MlpPolicy", DummyVecEnv([lambda: BadTerminal(4)]), baseline="value", seed=0)
     with pytest.raises(NonFiniteError, match="Environment 0 returned a non-finite terminal observation"):
-        model.learn(20)
+        model.learn(20, callback=CheckFinite())
 
 
 @pytest.mark.parametrize("where", ["obs", "action"])

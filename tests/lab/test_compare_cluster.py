@@ -25,7 +25,7 @@ from distributed import Client
 from sb3_reinforce.lab.compare.report import PER_RUN_DIR
 from sb3_reinforce.lab.compare.runner import RESULT_COLUMNS
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 DASK = str(Path(sys.executable).parent / "dask")
 #: A tiny comparison: CartPole, a few thousand steps, evaluated every 1,000
 TINY = ["--env", "CartPole-v1", "--eval-episodes", "2", "--no-progress"]
