@@ -1,10 +1,16 @@
-"""The one-line message for a command whose optional extra (``pip install 'sb3-reinforce[EXTRA]'``) is missing."""
+"""
+The commands' one-line errors for what a user can fix before anything runs: an optional extra
+(``pip install 'sb3-reinforce[EXTRA]'``) that is missing, an environment id that is not registered.
+"""
 
 import contextlib
+import difflib
 import sys
 from collections.abc import Iterator
 
-__all__ = ["EXTRA_MODULES", "missing_extra"]
+import gymnasium as gym
+
+__all__ = ["EXTRA_MODULES", "check_env_id", "missing_extra"]
 
 #: The top-level modules each optional extra installs (pyproject.toml's optional-dependencies).
 EXTRA_MODULES = {
@@ -33,3 +39,20 @@ def missing_extra(command: str, extra: str) -> Iterator[None]:
             file=sys.stderr,
         )
         sys.exit(2)
+
+
+def check_env_id(env_id: str) -> None:
+    """
+    Raise a ``ValueError`` if ``env_id`` is not in Gymnasium's registry, with the closest registered ids
+    (rl_zoo3's train suggests one as well, after a traceback; its other commands fail later, deeper).
+
+    :param env_id: The environment id (the packages that register it imported first)
+    """
+    try:
+        gym.spec(env_id)  # also imports the module of a "module:EnvName-v0" id
+        return
+    except gym.error.Error:
+        pass
+    close = difflib.get_close_matches(env_id, list(gym.envs.registry), n=3)
+    hint = f" Did you mean {' or '.join(close)}?" if close else ""
+    raise ValueError(f"Unknown environment {env_id!r}: not in the Gymnasium registry.{hint}")

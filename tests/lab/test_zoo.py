@@ -449,9 +449,9 @@ def test_missing_env_id(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
     args[args.index("CartPole-v1")] = "CartPol-v1"
     assert main(args) == 2
     err = capsys.readouterr().err
-    assert "--env CartPol-v1: no such environment in the Gymnasium registry. Did you mean CartPole-v1" in err
+    assert "--env: Unknown environment 'CartPol-v1': not in the Gymnasium registry. Did you mean CartPole-v1" in err
     assert main(["enjoy", "--algo", "reinforce", "--env", "NoSuchEnv-v0", "-f", str(tmp_path), "--no-render"]) == 2
-    assert "--env NoSuchEnv-v0: no such environment" in capsys.readouterr().err
+    assert "--env: Unknown environment 'NoSuchEnv-v0': not in the Gymnasium registry" in capsys.readouterr().err
 
 
 def test_env_without_config_entry(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

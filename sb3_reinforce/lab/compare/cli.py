@@ -20,7 +20,6 @@ import sys
 from pathlib import Path
 from typing import Any
 
-import gymnasium as gym
 import pandas as pd
 from tqdm import tqdm
 
@@ -45,7 +44,8 @@ from sb3_reinforce.lab.compare.experiment import (
     run_cpus,
 )
 from sb3_reinforce.lab.compare.report import PER_RUN_DIR, load_summaries, plot_learning_curves, summary_table, to_markdown
-from sb3_reinforce.lab.compare.runner import Checkpoint, RunSpec, run
+from sb3_reinforce.lab.compare.runner import Checkpoint, RunSpec, run, write_replacing
+from sb3_reinforce.lab.extras import check_env_id
 from sb3_reinforce.lab.stats import solve_threshold
 
 __all__ = ["build_parser", "main", "parse_specs", "runs_to_do", "write_outputs"]
@@ -153,10 +153,7 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None, 
     :return: The runs (finished or not), the solve threshold and each algorithm's zoo entry
     :raises ValueError: on any bad input, with a message saying what to change
     """
-    try:
-        gym.spec(args.env)
-    except gym.error.Error as error:
-        raise ValueError(f"Unknown environment {args.env!r}: {error}") from None
+    check_env_id(args.env)
     check_vec_env(args.vec_env, args.env)
     check_device(args.device, here=args.scheduler is None)
     algos = list(dict.fromkeys(algo.strip().lower() for algo in args.algos.split(",") if algo.strip()))
@@ -243,11 +240,8 @@ def _write_files(out_dir: Path, files: dict[str, bytes]) -> None:
         if relative.endswith(".json"):
             (out_dir / relative).unlink(missing_ok=True)
     for relative, data in sorted(files.items(), key=lambda item: item[0].endswith(".json")):
-        path = out_dir / relative
-        path.parent.mkdir(parents=True, exist_ok=True)
-        temporary = path.with_name(path.name + ".tmp")
-        temporary.write_bytes(data)
-        os.replace(temporary, path)
+        (out_dir / relative).parent.mkdir(parents=True, exist_ok=True)
+        write_replacing(out_dir / relative, data)
 
 
 def _run_files(out_dir: Path, spec: RunSpec) -> dict[str, bytes]:

@@ -37,6 +37,7 @@ __all__ = [
     "BAND_LABEL",
     "PER_RUN_DIR",
     "best_mean",
+    "learning_curves",
     "load_summaries",
     "overview_table",
     "plot_learning_curves",
@@ -110,6 +111,15 @@ def _finals(per_seed: Sequence[pd.DataFrame], column: str) -> list[float]:
     return [float(df[column].iloc[-1]) for df in per_seed]
 
 
+def learning_curves(algo_df: pd.DataFrame, column: str = "mean_return") -> tuple[np.ndarray, pd.DataFrame]:
+    """
+    One algorithm's evaluations as curves: ``column`` by evaluation index (rows) and seed (columns; NaN where a
+    run still going has not reached a point), and the steps of each evaluation index (the median over seeds).
+    """
+    table = algo_df.pivot_table(index="eval_index", columns="seed", values=column)
+    return algo_df.groupby("eval_index")["steps"].median().loc[table.index].to_numpy(), table
+
+
 def best_mean(algo_df: pd.DataFrame, column: str) -> tuple[float, float, int]:
     """
     Tianshou's metric (:func:`~sb3_reinforce.lab.stats.best_mean_over_seeds`) of one algorithm's evaluations: its
@@ -119,8 +129,7 @@ def best_mean(algo_df: pd.DataFrame, column: str) -> tuple[float, float, int]:
     :param column: ``"mean_return"`` (deterministic) or ``"mean_return_stochastic"``
     :return: (the best mean over seeds, the standard deviation over seeds there, the index of that point)
     """
-    curves = algo_df.pivot_table(index="eval_index", columns="seed", values=column).dropna().to_numpy().T
-    return best_mean_over_seeds(curves)
+    return best_mean_over_seeds(learning_curves(algo_df, column)[1].dropna().to_numpy().T)
 
 
 def _shown(figure: tuple[float, float, int]) -> str:
@@ -371,8 +380,7 @@ def plot_learning_curves(results: pd.DataFrame, threshold: float | None, path: P
     """
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for algo, algo_df in results.groupby("algo", sort=False):
-        table = algo_df.pivot_table(index="eval_index", columns="seed", values="mean_return")
-        steps = algo_df.groupby("eval_index")["steps"].median().loc[table.index].to_numpy()
+        steps, table = learning_curves(algo_df)
         mean, low, high = _mean_ci_band(table.to_numpy().T)
         (line,) = ax.plot(steps, mean, label=_seeds_label(_ALGO_NAMES.get(str(algo), str(algo).upper()), table.shape[1]))
         ax.fill_between(steps, low, high, color=line.get_color(), alpha=0.2)
@@ -472,8 +480,7 @@ def plot_overview(folders: Sequence[Path], path: Path) -> Figure:
     colors = {name: f"C{i}" for i, name in enumerate(_ALGO_NAMES)}
     for ax, (env_id, curves) in zip(axes.flat, panels.items(), strict=False):  # the last row may have empty axes
         for _, algo, algo_df in curves:
-            table = algo_df.pivot_table(index="eval_index", columns="seed", values="mean_return")
-            steps = algo_df.groupby("eval_index")["steps"].median().loc[table.index].to_numpy()
+            steps, table = learning_curves(algo_df)
             runs = table.to_numpy().T
             middle = [iqm(column[~np.isnan(column)]) for column in runs.T]
             bounds = [bootstrap_ci(column[~np.isnan(column)], iqm, n_resamples=500) for column in runs.T]

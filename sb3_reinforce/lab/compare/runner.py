@@ -50,7 +50,17 @@ from sb3_reinforce.lab.compare.report import PER_RUN_DIR
 from sb3_reinforce.safeguards import load_with_random_state, save_with_random_state
 from sb3_reinforce.version import __version__
 
-__all__ = ["RESULT_COLUMNS", "Checkpoint", "ComparisonEvalCallback", "RunSpec", "code_version", "process_tree_cpu_s", "run"]
+__all__ = [
+    "RESULT_COLUMNS",
+    "Checkpoint",
+    "ComparisonEvalCallback",
+    "RunSpec",
+    "code_version",
+    "process_tree_cpu_s",
+    "process_tree_rss_mb",
+    "run",
+    "write_replacing",
+]
 
 #: Columns of ``results.csv``: one row per algorithm, seed and evaluation point.
 RESULT_COLUMNS = [
@@ -183,7 +193,7 @@ class ComparisonEvalCallback(BaseCallback):
 
     def _evaluate(self) -> None:
         eval_start = time.perf_counter()
-        self.peak_rss_mb = max(self.peak_rss_mb, _process_tree_rss_mb(self.process))
+        self.peak_rss_mb = max(self.peak_rss_mb, process_tree_rss_mb(self.process))
         sync_envs_normalization(self.training_env, self.eval_env)
         results = []
         for deterministic in (True, False):
@@ -224,7 +234,7 @@ class ComparisonEvalCallback(BaseCallback):
             self.progress(self.num_timesteps)
 
 
-def _process_tree_rss_mb(process: psutil.Process) -> float:
+def process_tree_rss_mb(process: psutil.Process) -> float:
     """
     Memory (MiB) of ``process`` (its resident set size) and of the processes below it (a ``SubprocVecEnv``'s
     environments: their unique set size, the memory only each of them holds; pages they share, such as the libraries
@@ -304,7 +314,7 @@ class Checkpoint:
         if vecnormalize is not None:
             # obs_rms exists only where observations are normalized (norm_obs=False has none)
             statistics = {name: vecnormalize.__dict__[name] for name in _RUNNING_STATISTICS if name in vecnormalize.__dict__}
-            _write_replacing(self.vecnormalize_path, pickle.dumps(statistics))
+            write_replacing(self.vecnormalize_path, pickle.dumps(statistics))
         state = dict(
             spec=self.spec.__dict__,
             hyperparams=self.hyperparams,
@@ -314,7 +324,7 @@ class Checkpoint:
             vec_envs=self.vec_envs,
             devices=self.devices,
         )
-        _write_replacing(self.state_path, json.dumps(state, indent=2).encode())
+        write_replacing(self.state_path, json.dumps(state, indent=2).encode())
 
     def cpu_time_s(self) -> float:
         """
@@ -372,7 +382,7 @@ class Checkpoint:
             path.unlink(missing_ok=True)
 
 
-def _write_replacing(path: Path, data: bytes) -> None:
+def write_replacing(path: Path, data: bytes) -> None:
     """Write ``path`` whole, then rename it into place: an interruption leaves the old file or the new one."""
     temporary = path.with_name(path.name + ".tmp")
     temporary.write_bytes(data)
@@ -387,7 +397,7 @@ def _keep_rows_before(csv_path: Path, eval_index: int) -> None:
     kept = [rows[0]] + [row for row in rows[1:] if int(row[column]) < eval_index]
     buffer = io.StringIO()
     csv.writer(buffer).writerows(kept)
-    _write_replacing(csv_path, buffer.getvalue().encode())
+    write_replacing(csv_path, buffer.getvalue().encode())
 
 
 def code_version() -> dict[str, Any]:

@@ -42,6 +42,8 @@ import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.monitor import Monitor
 
+from sb3_reinforce.lab.compare.runner import process_tree_rss_mb
+from sb3_reinforce.lab.extras import check_env_id
 from sb3_reinforce.lab.seed.envs import make_seed_env
 from sb3_reinforce.lab.seed.presets import seed_hyperparams
 from sb3_reinforce.reinforce import REINFORCE
@@ -109,7 +111,7 @@ class _EpisodeRecorder(BaseCallback):
         for info in self.locals["infos"]:
             if "episode" in info:
                 self.episode += 1
-                self.peak_rss_mb = max(self.peak_rss_mb, self.process.memory_info().rss / 2**20)
+                self.peak_rss_mb = max(self.peak_rss_mb, process_tree_rss_mb(self.process))
                 rows.append(
                     [
                         self.env_id,
@@ -293,9 +295,9 @@ def main(argv: list[str] | None = None) -> None:
     if args.max_episode_steps < 1:
         parser.error(f"--max-episode-steps must be >= 1, got {args.max_episode_steps}")
     try:
-        gym.spec(args.env)
-    except gym.error.Error as error:
-        parser.error(f"Unknown environment {args.env!r}: {error}")
+        check_env_id(args.env)
+    except ValueError as error:
+        parser.error(str(error))
     args.out.mkdir(parents=True, exist_ok=True)
     todo = [
         s

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 from sb3_reinforce import REINFORCE
 from sb3_reinforce.lab.envpool_vec_env import ENVPOOL
-from sb3_reinforce.lab.extras import missing_extra
+from sb3_reinforce.lab.extras import check_env_id, missing_extra
 
 if TYPE_CHECKING:
     from sb3_reinforce.lab.zoo.storage import FaultTolerance
@@ -106,7 +106,7 @@ def _plot_from_file() -> None:
 
 #: rl_zoo3's scripts that start another of its scripts in a subprocess, by a command line that only works from a
 #: clone of the zoo and does not know REINFORCE (benchmark: ``python enjoy.py``; record_training: ``python -m
-#: rl_zoo3.record_video``) -> this package's command that runs it instead.
+#: rl_zoo3.record_video``; rl_zoo3 2.7 to 2.9.2, pyproject's bound) -> this package's command that runs it instead.
 _SUBPROCESS_COMMANDS = {("python", "enjoy.py"): "enjoy", ("python", "-m", "rl_zoo3.record_video"): "record-video"}
 
 
@@ -136,8 +136,9 @@ def _subprocesses_through_this_entry_point() -> Iterator[None]:
 @contextlib.contextmanager
 def _ffmpeg_on_path() -> Iterator[None]:
     """
-    rl_zoo3's record_training and huggingface_sb3's replay video call the ``ffmpeg`` program by name (``os.system``).
-    Where the PATH has none, put the one that moviepy's dependency imageio-ffmpeg ships there, as ``ffmpeg``.
+    rl_zoo3's record_training and huggingface_sb3's replay video call the ``ffmpeg`` program by name (``os.system``;
+    rl_zoo3 2.7 to 2.9.2, sb3-team-hf-integration 3.x). Where the PATH has none, put the one that moviepy's dependency
+    imageio-ffmpeg ships there, as ``ffmpeg``.
     """
     if shutil.which("ffmpeg") is not None:
         yield
@@ -252,10 +253,10 @@ _ROOT_TABLE = "benchmark.md"
 @contextlib.contextmanager
 def _table_stays_in_benchmark_dir() -> Iterator[dict[str, Any]]:
     """
-    rl_zoo3's benchmark writes its table to ``--benchmark-dir``/benchmark.md and then, without ``--test-mode``,
-    copies it to ``./benchmark.md`` (``shutil.copy(tmp_path, "benchmark.md")``): in the zoo's own clone that is its
-    README's table, anywhere else a stray file in the current directory. Leave that copy out (the table is already
-    in the benchmark folder) and drop the line that announces it.
+    rl_zoo3's benchmark (2.7 to 2.9.2) writes its table to ``--benchmark-dir``/benchmark.md and then, without
+    ``--test-mode``, copies it to ``./benchmark.md`` (``shutil.copy(tmp_path, "benchmark.md")``): in the zoo's own
+    clone that is its README's table, anywhere else a stray file in the current directory. Leave that copy out (the
+    table is already in the benchmark folder) and drop the line that announces it.
 
     :return: Globals for ``runpy.run_module`` (a ``print`` that drops the announcement of the copy)
     """
@@ -320,7 +321,6 @@ sb3_reinforce.lab.envpool_vec_env.ENVPOOL_ENV_IDS); evaluations stay on Gymnasiu
 
 def _check_env_id(args: Sequence[str]) -> None:
     """Raise ZooUsageError if ``--env`` names an environment that is not registered (after ``--gym-packages``)."""
-    import gymnasium as gym
     import rl_zoo3.import_envs  # noqa: F401  (registers the zoo's extra environments)
 
     from sb3_reinforce.lab.zoo.exp_manager import ZooUsageError
@@ -331,11 +331,11 @@ def _check_env_id(args: Sequence[str]) -> None:
     known, _ = parser.parse_known_args(args)
     for module in known.gym_packages:
         importlib.import_module(module)
-    if known.env is None or known.env in gym.envs.registry:
-        return
-    close = difflib.get_close_matches(known.env, list(gym.envs.registry), n=3)
-    hint = f" Did you mean {' or '.join(close)}?" if close else ""
-    raise ZooUsageError(f"--env {known.env}: no such environment in the Gymnasium registry.{hint}")
+    if known.env is not None:
+        try:
+            check_env_id(known.env)
+        except ValueError as error:
+            raise ZooUsageError(f"--env: {error}") from None
 
 
 #: Commands that write videos, by default into the agent's folder (``-o/--output-folder`` to change it).
