@@ -121,18 +121,28 @@ def configs(draw: st.DrawFn) -> tuple[spaces.Space, spaces.Space, dict[str, Any]
     return obs_space, action_space, cfg, hyper
 
 
-@settings(
+FUZZ = settings(
     max_examples=N_EXAMPLES,
     deadline=None,
     derandomize="SB3_REINFORCE_FUZZ_EXAMPLES" not in os.environ,
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
 )
-@given(configs())
-def test_fuzz_learn(config: tuple[spaces.Space, spaces.Space, dict[str, Any], dict[str, Any]]) -> None:
+Config = tuple[spaces.Space, spaces.Space, dict[str, Any], dict[str, Any]]
+
+
+def build(config: Config) -> tuple[DummyVecEnv, REINFORCE]:
+    """The generated environments and a small REINFORCE on them."""
     obs_space, action_space, cfg, hyper = config
     venv = DummyVecEnv([lambda i=i: FuzzEnv(obs_space, action_space, cfg, i) for i in range(cfg["n_envs"])])
     policy = "MultiInputPolicy" if isinstance(obs_space, spaces.Dict) else "MlpPolicy"
-    model = REINFORCE(policy, venv, policy_kwargs=dict(net_arch=[8]), seed=cfg["seed"], **hyper)
+    return venv, REINFORCE(policy, venv, policy_kwargs=dict(net_arch=[8]), seed=cfg["seed"], **hyper)
+
+
+@FUZZ
+@given(configs())
+def test_fuzz_learn(config: Config) -> None:
+    _, _, cfg, hyper = config
+    venv, model = build(config)
     try:
         model.learn(100, callback=CheckFinite())
     except NonFiniteError as error:
@@ -150,20 +160,12 @@ def test_fuzz_learn(config: tuple[spaces.Space, spaces.Space, dict[str, Any], di
     assert all(th.isfinite(p).all() for p in model.policy.parameters())
 
 
-@settings(
-    max_examples=N_EXAMPLES,
-    deadline=None,
-    derandomize="SB3_REINFORCE_FUZZ_EXAMPLES" not in os.environ,
-    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
-)
+@FUZZ
 @given(configs())
-def test_fuzz_learn_without_check(config: tuple[spaces.Space, spaces.Space, dict[str, Any], dict[str, Any]]) -> None:
+def test_fuzz_learn_without_check(config: Config) -> None:
     # Without CheckFinite, a NaN/inf the env emits is refused by REINFORCE itself at the update it would spoil
     # (a FloatingPointError, the weights unchanged), or is never used: the weights stay finite either way.
-    obs_space, action_space, cfg, hyper = config
-    venv = DummyVecEnv([lambda i=i: FuzzEnv(obs_space, action_space, cfg, i) for i in range(cfg["n_envs"])])
-    policy = "MultiInputPolicy" if isinstance(obs_space, spaces.Dict) else "MlpPolicy"
-    model = REINFORCE(policy, venv, policy_kwargs=dict(net_arch=[8]), seed=cfg["seed"], **hyper)
+    venv, model = build(config)
     try:
         model.learn(100)
     except FloatingPointError as error:
