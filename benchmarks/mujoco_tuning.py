@@ -5,7 +5,7 @@ the evaluations so far: each (candidate, env)'s figures over the tuning seeds, a
     python benchmarks/mujoco_tuning.py [--study benchmarks/results/mujoco_tuning]
 
 A candidate's score on an env is Tianshou's metric over seeds 100 and 101 (the best mean over seeds of the
-deterministic evaluations, :func:`~sb3_reinforce.lab.compare.report.best_mean`); the highest wins, except that two
+deterministic evaluations, :func:`~sb3_reinforce.lab.compare.figures.best_mean`); the highest wins, except that two
 within 2% of the env's threshold's magnitude are ranked by the mean over the two seeds of their last five evaluations
 (2.8M to 3M steps). An env is decided once all three candidates reached 3M steps on both seeds.
 """
@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from sb3_reinforce.lab.compare.report import best_mean
+from sb3_reinforce.lab.compare.figures import best_mean
 
 STUDY = Path(__file__).parent / "results" / "mujoco_tuning"
 CANDIDATES = ("a_value4", "b_value4_lr3", "c_value8")

@@ -43,7 +43,7 @@ SUMMARY_COMMAND = r"`sb3-reinforce report ((?:benchmarks/results/\S+ )+)--summar
 def test_summary_is_the_committed_results(page: str, monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     # The results tables of the README and of the results page are what `report --summary` makes of the committed
     # folders, so they cannot go stale; the results page opens with the figure the same command draws
-    from sb3_reinforce.lab.compare.report import overview_table, plot_overview, to_markdown
+    from sb3_reinforce.lab.compare.figures import overview_table, plot_overview, to_markdown
 
     text = (REPO / page).read_text()
     command = re.search(SUMMARY_COMMAND.format(page=re.escape(page)), text)
@@ -70,7 +70,7 @@ PUBLISHED_COMMAND = r"`sb3-reinforce report ((?:benchmarks/results/\S+ )*)--publ
 def test_published_table_is_the_committed_results(monkeypatch: pytest.MonkeyPatch) -> None:
     # The MuJoCo table of the results page is what `report --published` makes of the committed folders and the
     # published numbers' CSV, so it cannot go stale
-    from sb3_reinforce.lab.compare.report import published_table, to_markdown
+    from sb3_reinforce.lab.compare.figures import published_table, to_markdown
 
     page = "docs/results.md"
     text = (REPO / page).read_text()

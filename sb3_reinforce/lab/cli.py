@@ -29,7 +29,7 @@ def main(argv: list[str] | None = None) -> None:
     command, rest = argv[0], argv[1:]
     if command == "compare":
         with missing_extra("sb3-reinforce compare", "compare"), missing_extra("sb3-reinforce compare", "envpool"):
-            from sb3_reinforce.lab.compare.cli import main as compare_main
+            from sb3_reinforce.lab.compare.command import main as compare_main
 
             compare_main(rest)
     elif command == "seed":

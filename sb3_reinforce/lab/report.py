@@ -16,15 +16,15 @@ from pathlib import Path
 
 import pandas as pd
 
-from sb3_reinforce.lab.compare.cli import write_outputs
-from sb3_reinforce.lab.compare.report import (
+from sb3_reinforce.lab.compare.command import write_outputs
+from sb3_reinforce.lab.compare.figures import (
     PER_RUN_DIR,
     overview_table,
     plot_overview,
     published_table,
     to_markdown,
 )
-from sb3_reinforce.lab.seed.report import render_seed
+from sb3_reinforce.lab.seed.summary import render_seed
 from sb3_reinforce.lab.stats import solve_threshold
 
 __all__ = ["build_parser", "main", "render", "update_readme", "write_between_markers"]

@@ -17,9 +17,9 @@ from matplotlib.figure import Figure
 import sb3_reinforce
 from sb3_reinforce.lab.cli import main as cli_main
 from sb3_reinforce.lab.compare import runner
-from sb3_reinforce.lab.compare.cli import build_parser, main, parse_specs, runs_to_do, write_outputs
+from sb3_reinforce.lab.compare.command import build_parser, main, parse_specs, runs_to_do, write_outputs
 from sb3_reinforce.lab.compare.experiment import EVAL_SEED_OFFSET, build_run, known_algos, read_entry
-from sb3_reinforce.lab.compare.report import (
+from sb3_reinforce.lab.compare.figures import (
     BAND_LABEL,
     PER_RUN_DIR,
     load_summaries,

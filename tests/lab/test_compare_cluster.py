@@ -22,7 +22,7 @@ import psutil
 import pytest
 from distributed import Client
 
-from sb3_reinforce.lab.compare.report import PER_RUN_DIR
+from sb3_reinforce.lab.compare.figures import PER_RUN_DIR
 from sb3_reinforce.lab.compare.runner import RESULT_COLUMNS
 
 REPO = Path(__file__).resolve().parents[2]

@@ -16,9 +16,9 @@ import torch as th
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 from sb3_reinforce.lab.compare import runner
-from sb3_reinforce.lab.compare.cli import write_outputs
+from sb3_reinforce.lab.compare.command import write_outputs
 from sb3_reinforce.lab.compare.experiment import build_run
-from sb3_reinforce.lab.compare.report import PER_RUN_DIR, load_summaries
+from sb3_reinforce.lab.compare.figures import PER_RUN_DIR, load_summaries
 from sb3_reinforce.lab.compare.runner import RESULT_COLUMNS, Checkpoint, RunSpec, exploration_noise_to_policy_device
 
 

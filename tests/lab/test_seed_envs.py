@@ -13,8 +13,8 @@ from gymnasium import spaces
 from sb3_reinforce import REINFORCE
 from sb3_reinforce.lab.seed.envs import OneHotActions, SeedPixels, make_seed_env
 from sb3_reinforce.lab.seed.presets import seed_hyperparams
-from sb3_reinforce.lab.seed.report import stopped_reason
 from sb3_reinforce.lab.seed.reproduction import main as seed_main
+from sb3_reinforce.lab.seed.summary import stopped_reason
 
 
 class _ImageEnv(gym.Env[np.ndarray, np.ndarray]):

@@ -16,7 +16,7 @@ tar xJf .whl/envpool_slim_cp312.tar.xz -C /tmp/site || exit 3
 export PYTHONPATH=/tmp/site:$PWD
 printf '#!/bin/sh\nexec python3 -m sb3_reinforce.lab.cli "$@"\n' > /tmp/bin/sb3-reinforce && chmod +x /tmp/bin/sb3-reinforce
 export PATH=/tmp/bin:$PATH
-python3 -c "import envpool, torch, rl_zoo3.wrappers, sb3_reinforce.lab.compare.cli, Box2D, pygame, distributed
+python3 -c "import envpool, torch, rl_zoo3.wrappers, sb3_reinforce.lab.compare.command, Box2D, pygame, distributed
 import gymnasium.envs.box2d.car_racing
 envpool.make_gymnasium('CarRacing-v3', num_envs=1)
 print('imports ok, torch', torch.__version__, 'cuda', torch.cuda.is_available())" || exit 4

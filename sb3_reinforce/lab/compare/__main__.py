@@ -1,3 +1,3 @@
-from sb3_reinforce.lab.compare.cli import main
+from sb3_reinforce.lab.compare.command import main
 
 main()

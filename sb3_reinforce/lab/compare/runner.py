@@ -46,7 +46,7 @@ from stable_baselines3.common.vec_env import VecEnv, sync_envs_normalization
 
 from sb3_reinforce.lab.compare.evaluation import EpisodeBatch, episode_batch
 from sb3_reinforce.lab.compare.experiment import build_run
-from sb3_reinforce.lab.compare.report import PER_RUN_DIR
+from sb3_reinforce.lab.compare.figures import PER_RUN_DIR
 from sb3_reinforce.safeguards import load_with_random_state, save_with_random_state
 from sb3_reinforce.version import __version__
 

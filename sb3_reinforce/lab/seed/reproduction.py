@@ -282,7 +282,7 @@ def main(argv: list[str] | None = None) -> None:
     """Command line entry point (see the module docstring)."""
     # The compare extra's modules (Dask runs the seeds), imported before anything is written
     from sb3_reinforce.lab.compare.cluster import Job, JobResult, open_client, run_jobs, sigterm_as_interrupt
-    from sb3_reinforce.lab.seed.report import render_seed
+    from sb3_reinforce.lab.seed.summary import render_seed
 
     parser = build_parser()
     args = parser.parse_args(argv)

@@ -43,7 +43,7 @@ from sb3_reinforce.lab.compare.experiment import (
     read_entry,
     run_cpus,
 )
-from sb3_reinforce.lab.compare.report import PER_RUN_DIR, load_summaries, plot_learning_curves, summary_table, to_markdown
+from sb3_reinforce.lab.compare.figures import PER_RUN_DIR, load_summaries, plot_learning_curves, summary_table, to_markdown
 from sb3_reinforce.lab.compare.runner import Checkpoint, RunSpec, run, write_replacing
 from sb3_reinforce.lab.extras import check_env_id
 from sb3_reinforce.lab.stats import solve_threshold

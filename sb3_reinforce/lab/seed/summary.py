@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from sb3_reinforce.lab.compare.report import plot_seed_curves, seed_table, to_markdown
+from sb3_reinforce.lab.compare.figures import plot_seed_curves, seed_table, to_markdown
 from sb3_reinforce.lab.stats import solve_threshold
 
 __all__ = ["render_seed", "stopped_reason"]
