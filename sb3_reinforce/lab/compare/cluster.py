@@ -194,6 +194,11 @@ def worker_versions() -> dict[str, str | None]:
     process is daemonic (``"daemonic"``: ``"yes"`` or ``"no"``; a daemonic process cannot start the environment
     processes of ``--vec-env subproc``).
 
+    Not Dask's ``Client.get_versions(check=True, packages=...)``: it reads the installed distributions' metadata
+    (``importlib.metadata``), so a worker that imports another source tree (``PYTHONPATH``, a clone at another
+    commit) reports the installed version, and distributed 2026.8 only warns on a mismatch
+    (``tests/lab/test_compare_cluster.py -k another_package`` is such a worker).
+
     :return: Package -> version
     """
     import importlib
