@@ -139,7 +139,7 @@ class REINFORCE(OnPolicyAlgorithm):
         _init_setup_model: bool = True,
     ):
         arguments = locals()  # every hyperparameter is checked before anything is built
-        check_hyperparameters({name: arguments[name] for name in hyperparameter_defaults()})
+        check_hyperparameters({name: arguments[name] for name in ALLOWED_VALUES})  # keys: the signature (tested)
         if policy_kwargs is not None and "value_head" in policy_kwargs:
             raise ValueError("Do not set `value_head` in policy_kwargs: use REINFORCE(baseline='value') or baseline=None")
         super().__init__(
