@@ -3,6 +3,7 @@ The code examples of README.md and docs/ are executed, so they cannot rot: every
 runs, in order, in one namespace per page, in a temporary working directory (examples save files).
 """
 
+import json
 import os
 import re
 from pathlib import Path
@@ -63,16 +64,20 @@ def test_summary_is_the_committed_results(page: str, monkeypatch: pytest.MonkeyP
         )
 
 
-#: The command that writes a page's table of published results (the comparison folders, none yet, and the CSV)
-PUBLISHED_COMMAND = r"`sb3-reinforce report ((?:benchmarks/results/\S+ )*)--published (\S+) --published-into {page}`"
+#: The command that writes a page's table of published results (the comparison folders, the CSV), and on the results
+#: page its figure too
+PUBLISHED_COMMAND = (
+    r"`sb3-reinforce report ((?:benchmarks/results/\S+ )*)--published (\S+) --published-into {page}(?: --figure (\S+))?`"
+)
 
 
-def test_published_table_is_the_committed_results(monkeypatch: pytest.MonkeyPatch) -> None:
-    # The MuJoCo table of the results page is what `report --published` makes of the committed folders and the
-    # published numbers' CSV, so it cannot go stale
-    from sb3_reinforce.lab.compare.figures import published_table, to_markdown
+@pytest.mark.parametrize("page", ["README.md", "docs/results.md"])
+def test_published_table_is_the_committed_results(page: str, monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    # The MuJoCo tables of the README and of the results page are what `report --published` makes of the committed
+    # folders and the published numbers' CSV, so they cannot go stale; the results page shows the figure the same
+    # command draws, one panel per env of the folders
+    from sb3_reinforce.lab.compare.figures import plot_overview, published_table, to_markdown
 
-    page = "docs/results.md"
     text = (REPO / page).read_text()
     command = re.search(PUBLISHED_COMMAND.format(page=re.escape(page)), text)
     assert command is not None, f"{page} names the command that writes its published table"
@@ -82,4 +87,10 @@ def test_published_table_is_the_committed_results(monkeypatch: pytest.MonkeyPatc
     assert block is not None
     published = pd.read_csv(command.group(2))
     assert block.group(1) == to_markdown(published_table(folders, published))
+    if page == "docs/results.md":
+        figure = Path(command.group(3))
+        assert figure.is_file() and f"]({figure.relative_to('docs')})" in text
+        axes = plot_overview(folders, tmp_path / "figure.png").axes
+        envs = [json.loads((folder / "comparison.json").read_text())["env"] for folder in folders]
+        assert [ax.get_title() for ax in axes if ax.get_title()] == envs
     assert len(published["env_id"].unique()) == 9  # the nine envs of Tianshou's table

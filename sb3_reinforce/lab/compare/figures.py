@@ -475,8 +475,9 @@ def plot_overview(folders: Sequence[Path], path: Path) -> Figure:
     panels: dict[str, list[tuple[float | None, str, pd.DataFrame]]] = {}
     for _, env_id, threshold, algo, algo_df in _first_of_each(folders):
         panels.setdefault(env_id, []).append((threshold, algo, algo_df))
-    n_rows = -(-len(panels) // _OVERVIEW_COLUMNS)
-    fig, axes = plt.subplots(n_rows, _OVERVIEW_COLUMNS, figsize=(4.2 * _OVERVIEW_COLUMNS, 3.3 * n_rows), squeeze=False)
+    n_columns = min(_OVERVIEW_COLUMNS, len(panels))
+    n_rows = -(-len(panels) // n_columns)
+    fig, axes = plt.subplots(n_rows, n_columns, figsize=(4.2 * n_columns, 3.3 * n_rows), squeeze=False)
     colors = {name: f"C{i}" for i, name in enumerate(_ALGO_NAMES)}
     for ax, (env_id, curves) in zip(axes.flat, panels.items(), strict=False):  # the last row may have empty axes
         for _, algo, algo_df in curves:
@@ -499,7 +500,8 @@ def plot_overview(folders: Sequence[Path], path: Path) -> Figure:
         ax.axis("off")
     for row in axes:
         row[0].set_ylabel("evaluation return")
-    fig.suptitle("IQM over seeds of the deterministic evaluation return; band: its 95% bootstrap CI", fontsize=10)
+    separator = "; " if n_columns > 2 else "\n"  # one line where it fits
+    fig.suptitle(f"IQM over seeds of the deterministic evaluation return{separator}band: its 95% bootstrap CI", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
