@@ -16,8 +16,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+import seaborn as sns
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from matplotlib.ticker import FuncFormatter
 
@@ -324,14 +326,11 @@ def to_markdown(table: pd.DataFrame) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _mean_ci_band(curves: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    mean = np.nanmean(curves, axis=0)
-    bounds = [bootstrap_ci(col[~np.isnan(col)], np.mean, n_resamples=500) for col in curves.T]
-    return mean, np.array([b[0] for b in bounds]), np.array([b[1] for b in bounds])
-
-
 #: What the shaded band around each curve is (named in every plot's legend).
 BAND_LABEL = "band: 95% bootstrap CI of the mean over seeds"
+
+#: seaborn's band: the 95% bootstrap CI of the estimator over seeds, 500 resamples, a fixed seed (the same PNG twice)
+_BAND = dict(errorbar=("ci", 95), n_boot=500, seed=0)
 
 
 def _seeds_label(name: str, n_seeds: int) -> str:
@@ -339,8 +338,13 @@ def _seeds_label(name: str, n_seeds: int) -> str:
     return f"{name}: mean over {n_seeds} seeds" if n_seeds > 1 else f"{name}: 1 seed (no band)"
 
 
-def _thousands(x: float, _position: float) -> str:
-    return f"{x:,.0f}"
+def _curves(results: pd.DataFrame) -> pd.DataFrame:
+    """
+    ``results.csv``'s rows for seaborn: each evaluation at the median over seeds of its steps (a run ends past its
+    budget by up to a batch, so the seeds' points would not line up), with its algorithm's display name.
+    """
+    steps = results.groupby(["algo", "eval_index"])["steps"].transform("median")
+    return results.assign(steps=steps, algorithm=results["algo"].map(lambda algo: _ALGO_NAMES.get(algo, algo.upper())))
 
 
 def _finish_plot(
@@ -354,10 +358,8 @@ def _finish_plot(
     """
     if threshold is not None:
         ax.axhline(threshold, color="black", linestyle="--", linewidth=1, label=f"solved ({threshold:g})")
-    ax.xaxis.set_major_formatter(FuncFormatter(_thousands))
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(ylabel)
-    ax.set_title(title)
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda x, _: f"{x:,.0f}"))
+    ax.set(xlabel=xlabel, ylabel=ylabel, title=title)
     handles, _ = ax.get_legend_handles_labels()
     ax.legend(handles=[*handles, Patch(facecolor="gray", alpha=0.2, label=BAND_LABEL)] if band else handles)
     ax.grid(alpha=0.3)
@@ -378,12 +380,11 @@ def plot_learning_curves(results: pd.DataFrame, threshold: float | None, path: P
     :param title: The plot's title
     :return: The figure, saved and closed
     """
+    data = _curves(results)
+    seeds = data.groupby("algorithm", sort=False)["seed"].nunique()
+    data["algorithm"] = data["algorithm"].map({name: _seeds_label(name, n) for name, n in seeds.items()})
     fig, ax = plt.subplots(figsize=(7, 4.5))
-    for algo, algo_df in results.groupby("algo", sort=False):
-        steps, table = learning_curves(algo_df)
-        mean, low, high = _mean_ci_band(table.to_numpy().T)
-        (line,) = ax.plot(steps, mean, label=_seeds_label(_ALGO_NAMES.get(str(algo), str(algo).upper()), table.shape[1]))
-        ax.fill_between(steps, low, high, color=line.get_color(), alpha=0.2)
+    sns.lineplot(data, x="steps", y="mean_return", hue="algorithm", ax=ax, **_BAND)
     return _finish_plot(fig, ax, threshold, "environment steps", "evaluation return (deterministic)", title, path)
 
 
@@ -433,24 +434,19 @@ def plot_seed_curves(episodes: pd.DataFrame, threshold: float, path: Path, title
     :return: The figure, saved and closed
     """
     counts = episodes.groupby("seed")["episode"].max()
+    moving = episodes.sort_values(["seed", "episode"])
+    moving = moving.assign(moving=moving.groupby("seed")["episode_return"].transform(lambda x: rolling_mean(x, window)))
     fig, ax = plt.subplots(figsize=(7, 4.5))
     if counts.nunique() > 1:
         # Seeds that stopped early (sb3-reinforce seed --max-steps): a mean over seeds would end at the shortest
         # one, so each seed gets its own line, as far as it went.
-        for seed, df in episodes.groupby("seed"):
-            df = df.sort_values("episode")
-            ax.plot(df["episode"], rolling_mean(df["episode_return"], window), label=f"seed {seed} ({len(df):,} episodes)")
+        for seed, df in moving.groupby("seed"):
+            ax.plot(df["episode"], df["moving"], label=f"seed {seed} ({len(df):,} episodes)")
     else:
-        n_max = int(counts.iloc[0])
-        curves = np.full((episodes["seed"].nunique(), n_max), np.nan)
-        for i, (_, df) in enumerate(episodes.groupby("seed")):
-            df = df.sort_values("episode")
-            curves[i] = rolling_mean(df["episode_return"], window)[:n_max]
-        step = max(1, n_max // 400)  # a bootstrap every `step` episodes is enough for a plot
-        x = np.arange(1, n_max + 1)[::step]
-        mean, low, high = _mean_ci_band(curves[:, ::step])
-        (line,) = ax.plot(x, mean, label=_seeds_label("seed's agent", curves.shape[0]))
-        ax.fill_between(x, low, high, color=line.get_color(), alpha=0.2)
+        step = max(1, int(counts.iloc[0]) // 400)  # a bootstrap every `step` episodes is enough for a plot
+        every = moving[(moving["episode"] - 1) % step == 0]
+        label = _seeds_label("seed's agent", len(counts))
+        sns.lineplot(every.assign(curve=label), x="episode", y="moving", hue="curve", ax=ax, **_BAND)
     if episodes["episode_return"].abs().max() > 100 * max(abs(threshold), 1.0):
         # Returns over orders of magnitude (MountainCar without a time limit: -870,000 to -300)
         ax.set_yscale("symlog", linthresh=max(abs(threshold), 1.0))
@@ -472,37 +468,34 @@ def plot_overview(folders: Sequence[Path], path: Path) -> Figure:
     :param path: The PNG to write
     :return: The figure, saved and closed
     """
-    panels: dict[str, list[tuple[float | None, str, pd.DataFrame]]] = {}
-    for _, env_id, threshold, algo, algo_df in _first_of_each(folders):
-        panels.setdefault(env_id, []).append((threshold, algo, algo_df))
-    n_columns = min(_OVERVIEW_COLUMNS, len(panels))
-    n_rows = -(-len(panels) // n_columns)
-    fig, axes = plt.subplots(n_rows, n_columns, figsize=(4.2 * n_columns, 3.3 * n_rows), squeeze=False)
-    colors = {name: f"C{i}" for i, name in enumerate(_ALGO_NAMES)}
-    for ax, (env_id, curves) in zip(axes.flat, panels.items(), strict=False):  # the last row may have empty axes
-        for _, algo, algo_df in curves:
-            steps, table = learning_curves(algo_df)
-            runs = table.to_numpy().T
-            middle = [iqm(column[~np.isnan(column)]) for column in runs.T]
-            bounds = [bootstrap_ci(column[~np.isnan(column)], iqm, n_resamples=500) for column in runs.T]
-            label = f"{_ALGO_NAMES.get(algo, algo.upper())} ({table.shape[1]} seeds)"
-            (line,) = ax.plot(steps, middle, label=label, color=colors.get(algo))
-            ax.fill_between(steps, [b[0] for b in bounds], [b[1] for b in bounds], color=line.get_color(), alpha=0.2)
-        threshold = curves[0][0]
+    runs = [(env_id, threshold, algo_df) for _, env_id, threshold, _, algo_df in _first_of_each(folders)]
+    data = pd.concat([_curves(algo_df).assign(env=env_id) for env_id, _, algo_df in runs])
+    seeds = data.groupby(["env", "algorithm"])["seed"].transform("nunique")
+    data["label"] = data["algorithm"] + " (" + seeds.astype(str) + " seeds)"  # the legend's entries, per panel
+    colors = {name: f"C{i}" for i, name in enumerate(_ALGO_NAMES.values())}
+    palette = dict(zip(data["label"], data["algorithm"].map(colors), strict=True))
+    n_columns = min(_OVERVIEW_COLUMNS, data["env"].nunique())
+    grid = sns.relplot(
+        data, x="steps", y="mean_return", col="env", col_wrap=n_columns, hue="label", palette=palette, kind="line",
+        estimator=iqm, height=3.3, aspect=4.2 / 3.3, facet_kws=dict(sharex=False, sharey=False), legend=False, **_BAND,
+    )  # fmt: skip
+    thresholds = {env_id: threshold for env_id, threshold, _ in runs}
+    for env_id, ax in grid.axes_dict.items():
+        threshold = thresholds[env_id]
+        handles = [
+            Line2D([], [], color=palette[label], label=label) for label in data[data["env"] == env_id]["label"].unique()
+        ]
         if threshold is not None:
-            ax.axhline(threshold, color="black", linestyle="--", linewidth=1, label=f"solved ({threshold:g})")
+            handles.append(ax.axhline(threshold, color="black", linestyle="--", linewidth=1, label=f"solved ({threshold:g})"))
+        ax.legend(handles=handles, fontsize=7)
         ax.xaxis.set_major_formatter(FuncFormatter(lambda x, _: f"{x / 1e3:g}k" if x < 1e6 else f"{x / 1e6:g}M"))
-        ax.set_title(env_id)
-        ax.set_xlabel("environment steps")
+        ax.set(title=env_id, xlabel="environment steps", ylabel="evaluation return")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
-    for ax in axes.flat[len(panels) :]:
-        ax.axis("off")
-    for row in axes:
-        row[0].set_ylabel("evaluation return")
     separator = "; " if n_columns > 2 else "\n"  # one line where it fits
-    fig.suptitle(f"IQM over seeds of the deterministic evaluation return{separator}band: its 95% bootstrap CI", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return fig
+    grid.figure.suptitle(
+        f"IQM over seeds of the deterministic evaluation return{separator}band: its 95% bootstrap CI", fontsize=10
+    )
+    grid.figure.tight_layout()
+    grid.figure.savefig(path, dpi=100)
+    plt.close(grid.figure)
+    return grid.figure
