@@ -55,53 +55,24 @@ def register() -> None:
     rl_zoo3.train.ExperimentManager = ReinforceExperimentManager  # type: ignore[misc]
 
 
-def _train() -> None:
-    from rl_zoo3.train import train
-
-    train()
-
-
-def _enjoy() -> None:
-    from rl_zoo3.enjoy import enjoy
-
-    enjoy()
+def _zoo_function(module: str, name: str) -> Callable[[], None]:
+    """A command that calls rl_zoo3's ``module.name()`` (imported when the command runs, after :func:`register`)."""
+    return lambda: getattr(importlib.import_module(module), name)()
 
 
-def _record_video() -> None:
-    _run_zoo_script("rl_zoo3.record_video")
+def _zoo_script(module: str, *contexts: Callable[[], contextlib.AbstractContextManager[Any]]) -> Callable[[], None]:
+    """
+    A command that runs one of rl_zoo3's scripts (a module with a ``__main__`` block) as its command line would,
+    inside ``contexts`` (the workarounds below); a context that yields a dict gives the script's globals.
+    """
 
+    def command() -> None:
+        with contextlib.ExitStack() as stack:
+            init_globals = [stack.enter_context(context()) for context in contexts]
+            extra = next((g for g in init_globals if isinstance(g, dict)), None)
+            runpy.run_module(module, init_globals=extra, run_name="__main__", alter_sys=True)
 
-def _record_training() -> None:
-    with _subprocesses_through_this_entry_point(), _ffmpeg_on_path():
-        _run_zoo_script("rl_zoo3.record_training")
-
-
-def _push_to_hub() -> None:
-    with _hub_compatibility(), _ffmpeg_on_path():
-        _run_zoo_script("rl_zoo3.push_to_hub")
-
-
-def _load_from_hub() -> None:
-    with _hub_compatibility():
-        _run_zoo_script("rl_zoo3.load_from_hub")
-
-
-def _plot_train() -> None:
-    from rl_zoo3.plots import plot_train
-
-    plot_train()
-
-
-def _all_plots() -> None:
-    from rl_zoo3.plots import all_plots
-
-    all_plots()
-
-
-def _plot_from_file() -> None:
-    from rl_zoo3.plots import plot_from_file
-
-    plot_from_file()
+    return command
 
 
 #: rl_zoo3's scripts that start another of its scripts in a subprocess, by a command line that only works from a
@@ -241,11 +212,6 @@ def _hub_compatibility() -> Iterator[None]:
             del hf_push.generate_metadata
 
 
-def _run_zoo_script(module: str, init_globals: dict[str, Any] | None = None) -> None:
-    """Run one of rl_zoo3's scripts (a module with a ``__main__`` block) as its command line would."""
-    runpy.run_module(module, init_globals=init_globals, run_name="__main__", alter_sys=True)
-
-
 #: The copy of its table that rl_zoo3's benchmark writes into the current directory (its own repository's root).
 _ROOT_TABLE = "benchmark.md"
 
@@ -278,23 +244,18 @@ def _table_stays_in_benchmark_dir() -> Iterator[dict[str, Any]]:
         shutil.copy = original_copy
 
 
-def _benchmark() -> None:
-    with _subprocesses_through_this_entry_point(), _table_stays_in_benchmark_dir() as init_globals:
-        _run_zoo_script("rl_zoo3.benchmark", init_globals)
-
-
-#: Command name -> the rl_zoo3 command it runs.
+#: Command name -> the rl_zoo3 command it runs (with the workarounds above where rl_zoo3's script needs them).
 COMMANDS: dict[str, Callable[[], None]] = {
-    "train": _train,
-    "enjoy": _enjoy,
-    "benchmark": _benchmark,
-    "record-video": _record_video,
-    "record_training": _record_training,
-    "plot_train": _plot_train,
-    "all_plots": _all_plots,
-    "plot_from_file": _plot_from_file,
-    "push_to_hub": _push_to_hub,
-    "load_from_hub": _load_from_hub,
+    "train": _zoo_function("rl_zoo3.train", "train"),
+    "enjoy": _zoo_function("rl_zoo3.enjoy", "enjoy"),
+    "benchmark": _zoo_script("rl_zoo3.benchmark", _subprocesses_through_this_entry_point, _table_stays_in_benchmark_dir),
+    "record-video": _zoo_script("rl_zoo3.record_video"),
+    "record_training": _zoo_script("rl_zoo3.record_training", _subprocesses_through_this_entry_point, _ffmpeg_on_path),
+    "plot_train": _zoo_function("rl_zoo3.plots", "plot_train"),
+    "all_plots": _zoo_function("rl_zoo3.plots", "all_plots"),
+    "plot_from_file": _zoo_function("rl_zoo3.plots", "plot_from_file"),
+    "push_to_hub": _zoo_script("rl_zoo3.push_to_hub", _hub_compatibility, _ffmpeg_on_path),
+    "load_from_hub": _zoo_script("rl_zoo3.load_from_hub", _hub_compatibility),
 }
 # Commands that take one --env (checked here first, for a short error instead of a traceback).
 _ENV_COMMANDS = ("train", "enjoy", "record-video", "record_training", "push_to_hub", "load_from_hub")
