@@ -7,6 +7,11 @@
 #   bash benchmarks/mujoco_table.sh                                # on this machine, one env after the other
 #   bash benchmarks/mujoco_table.sh --scheduler tcp://HOST:8786    # on a Dask cluster: all envs' runs at once
 #   ENVS="HalfCheetah-v4 Hopper-v4" bash benchmarks/mujoco_table.sh  # some envs only (the table keeps the others')
+#   PPO_ENVS="" bash benchmarks/mujoco_table.sh                     # without PPO's runs
+#
+# PPO beside it (issue 45, item 4): on each env of PPO_ENVS (default HalfCheetah-v4 and Hopper-v4) that is selected,
+# rl_zoo3's PPO entry on seeds 1000-1002 at its own zoo budget, same evaluation, into the same folder (the learning
+# curves then show both; the published table reads REINFORCE's runs only).
 #
 # Each env's folder is benchmarks/results/verify_mujoco/ENV/; its solve threshold (the "steps to reach" column) is
 # the higher published number at 3M. Run from the repository's root with the compare and mujoco extras installed.
@@ -25,10 +30,16 @@ for env_id, best in table[table["budget"] == 3_000_000].groupby("env_id", sort=F
     print(env_id, best)
 PY
 )
+ppo_envs=" ${PPO_ENVS-HalfCheetah-v4 Hopper-v4} "
 run_env() {
     sb3-reinforce compare --env "$1" --algos reinforce --seeds 10 --first-seed 1000 --budget 3000000 \
         --eval-freq 50000 --eval-episodes 10 --threshold "$2" --no-progress \
         --out "benchmarks/results/verify_mujoco/$1" "${extra[@]}"
+    if [[ "$ppo_envs" == *" $1 "* ]]; then
+        sb3-reinforce compare --env "$1" --algos ppo --seeds 3 --first-seed 1000 --budget zoo \
+            --eval-freq 50000 --eval-episodes 10 --threshold "$2" --no-progress \
+            --out "benchmarks/results/verify_mujoco/$1" "${extra[@]}"
+    fi
 }
 pids=()
 for line in "${targets[@]}"; do
