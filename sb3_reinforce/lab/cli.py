@@ -1,10 +1,4 @@
-"""
-The ``sb3-reinforce`` command:
-
-- ``sb3-reinforce compare ...``: REINFORCE vs PPO vs A2C (:mod:`sb3_reinforce.lab.compare`)
-- ``sb3-reinforce seed ...``: the seed's agent for N episodes (:mod:`sb3_reinforce.lab.seed.reproduction`)
-- ``sb3-reinforce report DIR [DIR ...]``: rebuild a result folder's tables and plot, print its markdown table
-"""
+"""The ``sb3-reinforce`` command: dispatch to ``compare``, ``seed`` or ``report`` (see ``_USAGE``)."""
 
 import sys
 

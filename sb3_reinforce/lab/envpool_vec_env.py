@@ -1,31 +1,14 @@
 """
-Training environments stepped by EnvPool's C++ thread pool, behind SB3's ``VecEnv`` interface.
+Training environments stepped by `EnvPool <https://github.com/sail-sg/envpool>`_'s C++ threads (the ``envpool`` extra),
+several times faster than Gymnasium on Box2D. :class:`EnvPoolVecEnv` keeps ``DummyVecEnv``'s contract:
 
-`EnvPool <https://github.com/sail-sg/envpool>`_ (the ``envpool`` extra) runs batches of environments in C++
-threads; on the Box2D tasks, where the environment and not the algorithm is the cost of a run, it steps them
-several times faster than Gymnasium. :class:`EnvPoolVecEnv` gives it SB3's ``VecEnv`` contract, the same as
-``DummyVecEnv``'s:
+- an ended environment is reset at once (``info["terminal_observation"]``, ``info["TimeLimit.truncated"]``);
+- ``seed(seed)`` seeds environment ``i`` with ``seed + i`` from the next ``reset()``, which recreates the pool;
+- the spaces are Gymnasium's environment's (after the wrappers): models are evaluated, saved and loaded on it;
+- episodes are monitored as by SB3's ``Monitor`` (``info["episode"]``, ``monitor.csv``), without a wrapper.
 
-- an environment that ends is reset at once: ``step`` returns the first observation of its next episode and
-  puts the last one in ``info["terminal_observation"]``, with ``info["TimeLimit.truncated"]`` set when the
-  episode was cut by the time limit and did not terminate;
-- ``seed(seed)`` gives environment ``i`` the seed ``seed + i`` from the next ``reset()`` on (EnvPool seeds an
-  environment when it is created, so that ``reset()`` creates the pool anew);
-- the observation and action spaces are Gymnasium's own environment's (after the wrappers), so that a model
-  trained here is evaluated, saved and loaded against Gymnasium's environment, the reference for scores;
-- each environment is monitored as SB3's ``Monitor`` inside ``make_vec_env``'s wrappers: the last step of an
-  episode has ``info["episode"]`` (return, length in the environment's own steps, time), and
-  ``monitor_dir`` gets the episodes' ``monitor.csv``. The monitor is not a wrapper of its own, so that the
-  wrappers above (``VecNormalize``, ``VecFrameStack``) are those of a ``DummyVecEnv`` made by ``make_vec_env``
-  (SB3's ``sync_envs_normalization`` pairs them with the evaluation environment's).
-
-The zoo entries' wrappers get their vectorized equivalents: rl_zoo3's ``FrameSkip`` is done in EnvPool (each
-environment repeats its action, summing rewards, and stops at the end of its episode, as the wrapper does), and
-Gymnasium observation wrappers (resize, grayscale...) are Gymnasium's own classes, applied to each observation.
-Any other wrapper raises a ``ValueError`` naming it: it has no EnvPool equivalent.
-
-EnvPool's environments are C++ objects: ``env_method`` and ``set_attr`` raise ``NotImplementedError``, and
-``get_attr`` only knows ``render_mode`` (always ``None``) and the pool's own attributes (e.g. ``config``).
+rl_zoo3's ``FrameSkip`` runs in EnvPool and Gymnasium observation wrappers on each observation; other wrappers raise
+``ValueError``. ``env_method`` and ``set_attr`` raise ``NotImplementedError``.
 """
 
 import contextlib
@@ -53,8 +36,7 @@ __all__ = [
     "split_wrappers",
 ]
 
-#: The environment ids offered on EnvPool: Gymnasium's ids whose EnvPool twin is checked to score as
-#: Gymnasium's does (tests/lab/test_envpool.py).
+#: Gymnasium ids whose EnvPool twin is checked to score as Gymnasium's does (tests/lab/test_envpool.py).
 ENVPOOL_ENV_IDS = (
     "CartPole-v1",
     "Acrobot-v1",
@@ -76,9 +58,7 @@ WrapperSpec = tuple[type, dict[str, Any]]
 
 
 def check_envpool_installed() -> None:
-    """
-    Raise a ``ModuleNotFoundError`` naming the ``envpool`` extra when EnvPool cannot be imported.
-    """
+    """Raise a ``ModuleNotFoundError`` naming the ``envpool`` extra when EnvPool cannot be imported."""
     try:
         import envpool  # noqa: F401
     except ImportError:
@@ -100,11 +80,7 @@ def check_envpool_env(env_id: str) -> None:
 
 @contextlib.contextmanager
 def _quiet_float64_bounds() -> Iterator[None]:
-    """
-    Inside, Gymnasium does not warn of EnvPool's spaces: EnvPool 1.2 builds its float32 ``Box`` spaces from float64
-    bounds, and Gymnasium warns twice per space ("Box low's precision lowered by casting to float32"), which printed
-    into compare's progress bar. The adapter's spaces are Gymnasium's own environment's.
-    """
+    """Silence Gymnasium's "precision lowered" warnings on EnvPool 1.2's spaces (float32 ``Box`` from float64 bounds)."""
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=r".*precision lowered by casting to float32", category=UserWarning)
         yield
@@ -121,11 +97,11 @@ def _frame_skip_classes() -> tuple[type, ...]:
 
 def split_wrappers(wrappers: Sequence[type | WrapperSpec]) -> tuple[int, list[WrapperSpec]]:
     """
-    Sort a zoo entry's environment wrappers into what EnvPool runs: the frame skip and the observation wrappers.
-    Frame skipping commutes with observation wrappers (it keeps the last observation), so their order is free.
+    Sort a zoo entry's wrappers into what EnvPool runs: the frame skip and the observation wrappers (the two commute).
 
     :param wrappers: Wrapper classes, or (class, keyword arguments) pairs, innermost first
     :return: The number of frames each action is repeated, and the observation wrappers in order
+    :raises ValueError: for a wrapper without EnvPool equivalent
     """
     frame_skip = 1
     observation_wrappers: list[WrapperSpec] = []
@@ -146,17 +122,14 @@ def split_wrappers(wrappers: Sequence[type | WrapperSpec]) -> tuple[int, list[Wr
 
 class EnvPoolVecEnv(VecEnv):
     """
-    ``n_envs`` copies of ``env_id`` stepped in EnvPool's C++ thread pool, with SB3's ``VecEnv`` contract (see the
-    module docstring).
+    ``n_envs`` copies of ``env_id`` stepped in EnvPool's C++ thread pool, with SB3's ``VecEnv`` contract.
 
     :param env_id: One of :data:`ENVPOOL_ENV_IDS`
     :param n_envs: Number of environments
     :param seed: Environment ``i`` is seeded ``seed + i`` (None: random seeds)
     :param frame_skip: Each action is repeated this many times (rewards summed; an episode's end stops it)
-    :param observation_wrappers: Gymnasium observation wrappers (class, keyword arguments), innermost first,
-        applied to every observation
-    :param env_kwargs: Arguments of the environment, passed to Gymnasium's ``make`` (for the spaces) and to
-        EnvPool's (they must be arguments of both, e.g. ``lap_complete_percent``)
+    :param observation_wrappers: Gymnasium observation wrappers (class, keyword arguments), innermost first
+    :param env_kwargs: Arguments valid for both Gymnasium's and EnvPool's ``make`` (e.g. ``lap_complete_percent``)
     :param num_threads: EnvPool's worker threads (0: EnvPool's default)
     :param monitor_dir: Where the episodes' ``monitor.csv`` is written (SB3's ``Monitor`` format; None: no file)
     """
@@ -186,7 +159,7 @@ class EnvPoolVecEnv(VecEnv):
         unknown = sorted(set(self.env_kwargs) - set(envpool.make_spec(env_id).config._fields))
         if unknown:
             raise ValueError(f"env_kwargs {', '.join(unknown)} of {env_id} are not arguments of its EnvPool environment")
-        # Gymnasium's environment, wrapped, gives the spaces and transforms the observations; it is never stepped.
+        # Gymnasium's environment, wrapped, gives the spaces and transforms observations; it is never stepped.
         reference = gym.make(env_id, **self.env_kwargs)
         self._observation_wrappers: list[gym.ObservationWrapper] = []
         wrapped: gym.Env = reference
@@ -281,8 +254,7 @@ class EnvPoolVecEnv(VecEnv):
 
     def step_wait(self) -> VecEnvStepReturn:
         """
-        Step every environment ``frame_skip`` times (an environment whose episode ends stops there), reset those
-        whose episode ended.
+        Step every environment ``frame_skip`` times (stopping at an episode's end), and reset those whose episode ended.
 
         :return: The observations, rewards, dones and infos, as SB3's ``DummyVecEnv`` gives them
         """
@@ -353,8 +325,7 @@ class EnvPoolVecEnv(VecEnv):
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
         """
-        :param attr_name: ``render_mode`` (None: EnvPool's environments do not render here) or an attribute of
-            EnvPool's pool, the same for every environment (e.g. ``config``)
+        :param attr_name: ``render_mode`` (always None) or an attribute of EnvPool's pool (e.g. ``config``)
         :param indices: Which environments
         :return: The attribute, once per environment
         """
@@ -402,16 +373,14 @@ def make_envpool_vec_env(
     num_threads: int = 0,
 ) -> EnvPoolVecEnv:
     """
-    EnvPool's counterpart of SB3's ``make_vec_env``: ``n_envs`` environments ``env_id`` stepped by EnvPool, with
-    the given wrappers done in EnvPool (frame skip) or on the observations, each monitored as by SB3's ``Monitor``.
+    EnvPool's counterpart of SB3's ``make_vec_env``, each environment monitored as by SB3's ``Monitor``.
 
     ``REINFORCE("MlpPolicy", make_envpool_vec_env("LunarLander-v3", n_envs=8))``
 
     :param env_id: One of :data:`ENVPOOL_ENV_IDS`
     :param n_envs: Number of environments
     :param seed: Environment ``i`` is seeded ``seed + i`` (None: random seeds)
-    :param wrappers: Wrapper classes, or (class, keyword arguments) pairs, innermost first: rl_zoo3's
-        ``FrameSkip`` and Gymnasium observation wrappers (see :func:`split_wrappers`)
+    :param wrappers: Wrapper classes or (class, keyword arguments) pairs, innermost first (see :func:`split_wrappers`)
     :param env_kwargs: Arguments of the environment (see :class:`EnvPoolVecEnv`)
     :param monitor_dir: Where the episodes' ``monitor.csv`` is written (None: no file)
     :param num_threads: EnvPool's worker threads (0: EnvPool's default)
@@ -430,9 +399,7 @@ def envpool_vec_env_class(
     num_threads: int = 0,
 ) -> Callable[..., VecEnv]:
     """
-    A stand-in for ``DummyVecEnv`` in SB3's ``make_vec_env(..., vec_env_cls=...)`` (and so in rl_zoo3's
-    ``create_envs``): called with the environment factories, it builds :func:`make_envpool_vec_env`'s environment
-    with as many EnvPool environments instead (``make_vec_env`` then seeds it).
+    A ``vec_env_cls`` for SB3's ``make_vec_env`` (and rl_zoo3's ``create_envs``) building :func:`make_envpool_vec_env`.
 
     :param env_id: One of :data:`ENVPOOL_ENV_IDS`
     :param wrappers: As :func:`make_envpool_vec_env`'s

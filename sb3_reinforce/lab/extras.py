@@ -1,7 +1,4 @@
-"""
-The commands' one-line errors for what a user can fix before anything runs: an optional extra
-(``pip install 'sb3-reinforce[EXTRA]'``) that is missing, an environment id that is not registered.
-"""
+"""One-line errors for a missing optional extra and an unregistered environment id."""
 
 import contextlib
 import difflib
@@ -12,7 +9,7 @@ import gymnasium as gym
 
 __all__ = ["EXTRA_MODULES", "check_env_id", "missing_extra"]
 
-#: The top-level modules each optional extra installs (pyproject.toml's optional-dependencies).
+#: The top-level modules each optional extra installs.
 EXTRA_MODULES = {
     "compare": ("rl_zoo3", "pandas", "matplotlib", "psutil", "tqdm", "yaml", "optuna", "distributed", "dask"),
     "zoo": ("rl_zoo3", "requests", "pandas", "moviepy", "cv2", "optuna", "yaml"),
@@ -43,8 +40,7 @@ def missing_extra(command: str, extra: str) -> Iterator[None]:
 
 def check_env_id(env_id: str) -> None:
     """
-    Raise a ``ValueError`` if ``env_id`` is not in Gymnasium's registry, with the closest registered ids
-    (rl_zoo3's train suggests one as well, after a traceback; its other commands fail later, deeper).
+    Raise a ``ValueError`` naming the closest registered ids if ``env_id`` is not in Gymnasium's registry.
 
     :param env_id: The environment id (the packages that register it imported first)
     """

@@ -1,12 +1,7 @@
 """
 ``sb3-reinforce report DIR [DIR ...] [--readme README.md] [--summary FILE] [--figure PNG] [--published CSV
-[--published-into FILE]]``: rebuild the tables and plots of result folders from their raw files, print each markdown
-table, and optionally write them into a README between the markers ``<!-- results:DIR -->`` and
-``<!-- /results:DIR -->``, the one-screen summary into a file, the results-at-a-glance figure (a panel per env) into a
-PNG, and the table of published results beside this package's (between ``<!-- published -->`` markers).
-
-A folder with ``per_run/`` is a comparison (``sb3-reinforce compare``); a folder with ``episodes_seed*.csv`` is
-a seed reproduction (``sb3-reinforce seed``).
+[--published-into FILE]]``: rebuild result folders' tables and plots, print their markdown tables and optionally
+write them into markdown files between ``<!-- MARKER -->`` comments.
 """
 
 import argparse
@@ -58,11 +53,14 @@ def write_between_markers(path: Path, marker: str, text: str) -> bool:
     """
     Replace what stands between ``<!-- MARKER -->`` and ``<!-- /MARKER -->`` in a markdown file.
 
+    :param path: The markdown file
+    :param marker: The marker's name
+    :param text: The new text, taken as is
     :return: Whether the markers were found (the file is left as it was otherwise)
     """
     content = path.read_text()
     pattern = re.compile(rf"(<!-- {re.escape(marker)} -->\n).*?(<!-- /{re.escape(marker)} -->)", re.DOTALL)
-    content, count = pattern.subn(lambda m: m.group(1) + text + m.group(2), content)  # text taken as is, no escapes
+    content, count = pattern.subn(lambda m: m.group(1) + text + m.group(2), content)  # no escape processing of text
     if count:
         path.write_text(content)
     return bool(count)

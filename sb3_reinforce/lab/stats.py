@@ -1,7 +1,6 @@
 """
-Statistics for comparing runs over seeds: interquartile mean and percentile-bootstrap confidence intervals
-(as in rliable, Agarwal et al. 2021), steps to a threshold, and medians / quartiles where "not reached"
-counts as infinitely late.
+Statistics for comparing runs over seeds: interquartile mean and percentile-bootstrap confidence intervals (as in
+rliable), steps to a threshold, and quantiles where "not reached" counts as infinitely late.
 """
 
 from collections.abc import Callable, Sequence
@@ -21,16 +20,13 @@ __all__ = [
     "solve_threshold",
 ]
 
-#: Solve thresholds of environments that Gymnasium gives none (``reward_threshold`` is None): Pendulum-v1's -200
-#: is issue #13's target for it (docs/status.md). Any other threshold (CarRacing-v3's target of 500, say, against
-#: Gymnasium's 900) is passed to ``sb3-reinforce compare --threshold``.
+#: Solve thresholds of environments without Gymnasium's ``reward_threshold`` (Pendulum-v1: issue #13's target).
 THRESHOLDS_WITHOUT_GYMNASIUM: dict[str, float] = {"Pendulum-v1": -200.0}
 
 
 def solve_threshold(env_id: str) -> float | None:
     """
-    Score at which an environment counts as solved: Gymnasium's ``reward_threshold`` of its registered spec, or
-    :data:`THRESHOLDS_WITHOUT_GYMNASIUM` for an environment that has none.
+    Solved score: Gymnasium's ``reward_threshold``, else :data:`THRESHOLDS_WITHOUT_GYMNASIUM`'s.
 
     :param env_id: A Gymnasium environment id
     :return: The threshold, or None if neither defines one (or the id is not registered)
@@ -46,8 +42,7 @@ def solve_threshold(env_id: str) -> float | None:
 
 def iqm(values: Sequence[float] | np.ndarray) -> float:
     """
-    Interquartile mean: the mean of the middle 50% of the values, dropping the lowest and highest 25%
-    (``scipy.stats.trim_mean(values, 0.25)``, as rliable). With 5 values, the mean of the middle 3.
+    Interquartile mean: the mean of the middle 50% of the values (``scipy.stats.trim_mean(values, 0.25)``, as rliable).
 
     :param values: The scores (one per run)
     :return: The IQM
@@ -66,10 +61,7 @@ def bootstrap_ci(
     seed: int = 0,
 ) -> tuple[float, float]:
     """
-    Percentile-bootstrap confidence interval of ``statistic`` (``scipy.stats.bootstrap`` with
-    ``method="percentile"``): resample the values with replacement ``n_resamples`` times and take the
-    ``(1 - confidence) / 2`` and ``(1 + confidence) / 2`` quantiles of the statistic over the resamples
-    (rliable's default method, with one task).
+    Percentile-bootstrap confidence interval of ``statistic`` (``scipy.stats.bootstrap``, rliable's default method).
 
     :param values: The scores (one per run)
     :param statistic: Maps a 1-D array to a number (e.g. ``np.mean`` or :func:`iqm`)
@@ -114,8 +106,7 @@ def first_crossing(x: Sequence[float] | np.ndarray, scores: Sequence[float] | np
 
 def quantile_with_inf(values: Sequence[float] | np.ndarray, q: float) -> float:
     """
-    Linear-interpolation quantile (numpy's default) where ``inf`` ("not reached") is a valid, largest value:
-    a quantile that falls on or next to an ``inf`` is ``inf``, one between finite values is interpolated.
+    Linear-interpolation quantile where ``inf`` ("not reached") is largest: one on or next to an ``inf`` is ``inf``.
 
     :param values: e.g. steps to threshold of each seed, ``inf`` where not reached
     :param q: The quantile, in [0, 1] (0.5: median, 0.25 / 0.75: quartiles)
@@ -136,8 +127,7 @@ def quantile_with_inf(values: Sequence[float] | np.ndarray, q: float) -> float:
 
 def rolling_mean(values: Sequence[float] | np.ndarray, window: int) -> np.ndarray:
     """
-    Mean of the last ``window`` values at each position (fewer at the start), as the seed's and SB3's
-    "mean reward of the last 100 episodes".
+    Mean of the last ``window`` values at each position (fewer at the start), as SB3's "last 100 episodes" mean.
 
     :param values: One value per episode
     :param window: Window length
@@ -152,13 +142,10 @@ def rolling_mean(values: Sequence[float] | np.ndarray, window: int) -> np.ndarra
 
 def best_mean_over_seeds(curves: Sequence[Sequence[float]] | np.ndarray) -> tuple[float, float, int]:
     """
-    Tianshou's benchmark metric (thu-ml/tianshou, ``examples/mujoco``): at each evaluation point the mean over seeds
-    of the evaluation return, and the maximum of that over the points; reported with the standard deviation over
-    seeds at that point. Kinder than a final score: it reads the best point of the mean curve.
+    Tianshou's benchmark metric: the best point of the mean-over-seeds curve, with the standard deviation there.
 
     :param curves: One row per seed, one column per evaluation point (the same points for every seed)
-    :return: (the maximum of the mean curve, the standard deviation over seeds there, the index of that point;
-        the first such point on a tie)
+    :return: (the maximum of the mean curve, the standard deviation there, the index of that point, the first on a tie)
     """
     array = np.asarray(curves, dtype=np.float64)
     if array.ndim != 2 or array.size == 0:

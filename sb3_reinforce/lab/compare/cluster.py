@@ -1,23 +1,9 @@
 """
-Runs on Dask ``distributed``, for ``sb3-reinforce compare`` and ``sb3-reinforce seed``: on a ``LocalCluster`` the
-command starts itself on 127.0.0.1 (the default, one worker process per ``--workers``), or on a cluster already
-running (``--scheduler tcp://HOST:PORT`` or ``tls://HOST:PORT``: ``dask scheduler`` on one machine, ``dask worker``
-on the others).
-
-No filesystem is shared: each run works in a folder of its worker's own local directory, and its files come back
-through the scheduler as it goes (:meth:`RunChannel.send`, after each evaluation) and when it ends; the command
-writes them into its output folder. A run that starts again (after a worker died, or in a command run again) gets
-the files last sent back (its checkpoint) before it starts, on whatever worker it lands.
-
-A run asks for the CPUs it keeps busy through the worker resource ``CPU``: a worker runs it only if it lends at
-least as many. A worker started as Dask documents it (``dask worker ADDRESS``, no ``--resources``) lends its threads
-(:class:`LendThreadsAsCPUs`); ``dask worker --resources CPU=N`` lends N; the local default gives each worker what the
-largest run needs, so that ``--workers`` alone says how many runs go at once, as it always did.
-
-A worker that dies mid-run (killed, its machine lost) has its run started again on a worker still there, by the
-scheduler, up to its ``distributed.scheduler.allowed-failures`` times; a run whose code raises is retried
-:data:`RUN_RETRIES` times. Stopping the command (Ctrl-C, SIGTERM) sets a :class:`~distributed.Event` that every
-running run checks about once a second: it stops at once, its last checkpoint kept.
+Dask ``distributed`` backend of ``sb3-reinforce compare`` and ``sb3-reinforce seed``: a ``LocalCluster`` on 127.0.0.1
+(default, one worker process per ``--workers``) or a running cluster (``--scheduler tcp://HOST:PORT`` or ``tls://...``).
+No filesystem is shared: a run's files come back through the scheduler (:meth:`RunChannel.send`) and a restarted run
+gets them first. A run whose worker dies is restarted (``distributed.scheduler.allowed-failures``), one that raises is
+retried :data:`RUN_RETRIES` times; Ctrl-C or SIGTERM stops the runs within a second, their last checkpoint kept.
 """
 
 import contextlib
@@ -72,17 +58,13 @@ class RunStopped(Exception):
 
 class IgnoreInterrupt(WorkerPlugin):
     """
-    A worker process started by a nanny ignores SIGINT: Ctrl-C reaches the whole process group, and only the process
-    that started it handles it. On the local cluster that is the command (it stops the runs, then closes the cluster,
-    which stops its workers); under ``dask worker`` it is the nanny, which closes its worker process at once. Without
-    this a worker process that gets the SIGINT too closes itself while its nanny closes it, and the nanny kills it
-    after 8 s ("Worker process still alive after 8.0 seconds, killing"; distributed 2026.8.0, with or without a run
-    having trained). A worker without a nanny (``--no-nanny``) keeps Dask's handling: Ctrl-C stops it.
+    Make nanny-started worker processes ignore SIGINT, left to their parent (the command, or the nanny): otherwise the
+    nanny kills a worker closing itself after 8 s (distributed 2026.8.0). ``--no-nanny`` workers keep Dask's handling.
     """
 
     def setup(self, worker: Worker) -> None:
         """
-        Ignore SIGINT in the worker process (the plugin is set up in its main thread, which runs its event loop).
+        Ignore SIGINT in the worker process (set up in its main thread).
 
         :param worker: The worker
         """
@@ -91,15 +73,11 @@ class IgnoreInterrupt(WorkerPlugin):
 
 
 class LendThreadsAsCPUs(WorkerPlugin):
-    """
-    A worker that declares no ``CPU`` resource (``dask worker ADDRESS``, as Dask documents it) lends its threads as
-    CPUs: one run per thread at a time, as Dask runs one task per thread. A worker started with ``--resources
-    CPU=N`` keeps its N. Registered on the cluster by the command, it reaches the workers that join later too.
-    """
+    """Lend a worker's threads as ``CPU`` where it declares none (``--resources CPU=N`` keeps N); reaches later workers."""
 
     async def setup(self, worker: Worker) -> None:
         """
-        Declare ``CPU`` = the worker's threads, where it declares no ``CPU`` of its own.
+        Declare ``CPU`` = the worker's threads, unless it declares its own.
 
         :param worker: The worker
         """
@@ -114,12 +92,7 @@ def _interrupt_once(signum: int, frame: object) -> None:
 
 @contextlib.contextmanager
 def sigterm_as_interrupt() -> Iterator[None]:
-    """
-    Inside, ``kill PID`` (SIGTERM) stops the command as Ctrl-C does: a ``KeyboardInterrupt`` that stops the runs,
-    their last files kept, and closes the cluster. Its repeats are ignored from then on, until the command has
-    exited (GNU ``timeout`` signals the command and then its process group): one landing in the cluster's shutdown
-    would cut it short, or end the command by the signal instead of its exit status.
-    """
+    """Inside, SIGTERM acts as Ctrl-C (``KeyboardInterrupt``); repeats are then ignored so the shutdown is not cut short."""
     previous = signal.signal(signal.SIGTERM, _interrupt_once)
     stopping = False
     try:
@@ -132,20 +105,17 @@ def sigterm_as_interrupt() -> Iterator[None]:
             signal.signal(signal.SIGTERM, previous)
 
 
-#: The variable Dask's nanny sets to 65536 in the worker processes it starts (``distributed.nanny.pre-spawn-environ``).
-#: Set to any value, it turns off glibc's dynamic mmap threshold: every large array is then mapped and unmapped
-#: afresh, and CarRacing's training runs 2x slower (``benchmarks/results/malloc_trim.csv``; LunarLander's does not).
+#: Set to 65536 by Dask's nanny (``distributed.nanny.pre-spawn-environ``); any value turns off glibc's dynamic mmap
+#: threshold, and CarRacing's training runs 2x slower (``benchmarks/results/malloc_trim.csv``).
 MALLOC_TRIM = "MALLOC_TRIM_THRESHOLD_"
 
 
 @contextlib.contextmanager
 def open_client(scheduler: str | None, n_workers: int, worker_cpus: int, dashboard: str | None = None) -> Iterator[Client]:
     """
-    A client of the cluster that runs the jobs: a ``LocalCluster`` on 127.0.0.1 started here (and closed on the way
-    out), or the cluster at ``scheduler``.
+    A client of a ``LocalCluster`` on 127.0.0.1 started (and closed) here, or of the cluster at ``scheduler``.
 
-    :param scheduler: The scheduler's address (``tcp://HOST:PORT``, ``tls://HOST:PORT``; TLS files come from Dask's
-        configuration, ``distributed.comm.tls``), or None for a local cluster
+    :param scheduler: ``tcp://HOST:PORT`` or ``tls://HOST:PORT`` (TLS: ``distributed.comm.tls``), None: local
     :param n_workers: The local cluster's worker processes (one run each at a time)
     :param worker_cpus: The ``CPU`` resource of each local worker
     :param dashboard: The local cluster's dashboard address (None: no dashboard)
@@ -156,9 +126,9 @@ def open_client(scheduler: str | None, n_workers: int, worker_cpus: int, dashboa
         with (
             dask.config.set(
                 {
-                    # A worker process may start processes of its own (--vec-env subproc's environments)
+                    # --vec-env subproc starts processes in the worker
                     "distributed.worker.daemon": False,
-                    # Not Dask's MALLOC_TRIM_THRESHOLD_=65536 (see MALLOC_TRIM); None unsets it, as Dask documents
+                    # None unsets Dask's MALLOC_TRIM_THRESHOLD_=65536 (see MALLOC_TRIM), as Dask documents
                     f"distributed.nanny.pre-spawn-environ.{MALLOC_TRIM}": None,
                 }
             ),
@@ -168,8 +138,7 @@ def open_client(scheduler: str | None, n_workers: int, worker_cpus: int, dashboa
                 threads_per_worker=1,
                 processes=True,
                 dashboard_address=dashboard,
-                # Without a dashboard the scheduler still serves HTTP (health, metrics), on 8787 unless told: a free
-                # port instead, so that two commands at once on one machine do not collide (nor warn)
+                # Scheduler HTTP runs without a dashboard too: a free port, not 8787, so commands can share a machine
                 scheduler_kwargs={"dashboard_address": dashboard or "127.0.0.1:0"},
                 resources={CPU_RESOURCE: worker_cpus},
                 silence_logs=logging.ERROR,
@@ -190,14 +159,9 @@ def open_client(scheduler: str | None, n_workers: int, worker_cpus: int, dashboa
 
 def worker_versions() -> dict[str, str | None]:
     """
-    On a worker: the versions of :data:`CHECKED_PACKAGES` it imports (None: not installed), and whether its
-    process is daemonic (``"daemonic"``: ``"yes"`` or ``"no"``; a daemonic process cannot start the environment
-    processes of ``--vec-env subproc``).
-
-    Not Dask's ``Client.get_versions(check=True, packages=...)``: it reads the installed distributions' metadata
-    (``importlib.metadata``), so a worker that imports another source tree (``PYTHONPATH``, a clone at another
-    commit) reports the installed version, and distributed 2026.8 only warns on a mismatch
-    (``tests/lab/test_compare_cluster.py -k another_package`` is such a worker).
+    On a worker: the versions of :data:`CHECKED_PACKAGES` it imports (None: not installed) and ``"daemonic"`` (``"yes"``
+    or ``"no"``: a daemonic process cannot start ``--vec-env subproc``'s processes). Not ``Client.get_versions``, which
+    reads installed metadata and only warns (distributed 2026.8).
 
     :return: Package -> version
     """
@@ -219,8 +183,7 @@ def malloc_trim_threshold() -> str | None:
 
 def check_workers(client: Client, cpus: int, scheduler: str, subprocesses: bool = False) -> list[str]:
     """
-    Refuse a cluster without a worker, with a worker whose packages differ from this process's, or where no worker
-    lends ``cpus`` CPUs; warn of workers whose processes run with :data:`MALLOC_TRIM` set.
+    Refuse a cluster without a fit worker (none, other package versions, too few CPUs); warn of :data:`MALLOC_TRIM`.
 
     :param client: The cluster's client
     :param cpus: The CPUs the largest run asks for
@@ -233,7 +196,7 @@ def check_workers(client: Client, cpus: int, scheduler: str, subprocesses: bool 
     if not workers:
         raise ClusterError(f"the scheduler at {scheduler} has no worker: start one with `dask worker {scheduler}`")
     ours = worker_versions()
-    # A worker without the package cannot unpickle worker_versions (it is found by name): that error is its answer
+    # A worker without the package cannot unpickle worker_versions: that error is its answer
     answers = client.run(worker_versions, on_error="return")
     for address, answer in sorted(answers.items()):
         name = f"{workers.get(address, {}).get('name', address)} ({address}) of {scheduler}"
@@ -248,7 +211,7 @@ def check_workers(client: Client, cpus: int, scheduler: str, subprocesses: bool 
                 f"worker {name} is a daemonic process and cannot start --vec-env subproc's environment "
                 "processes: start it with DASK_DISTRIBUTED__WORKER__DAEMON=False"
             )
-    # Every worker has the package by now: it can unpickle the plugins (which reach later workers too)
+    # Every worker has the package now, so it can unpickle the plugins (which reach later workers too)
     client.register_plugin(LendThreadsAsCPUs())
     client.register_plugin(IgnoreInterrupt())
     workers = client.scheduler_info(n_workers=-1)["workers"]
@@ -270,7 +233,7 @@ def check_workers(client: Client, cpus: int, scheduler: str, subprocesses: bool 
 
 class RunChannel:
     """
-    A run's side of the way back to the command, on its worker: the run's folder, its files sent back, the stop flag.
+    A run's link to the command, on its worker: its folder, its files sent back, the stop flag.
 
     :param token: The command's token (names its queue, variables and stop flag on the scheduler)
     :param name: The run's name
@@ -346,8 +309,7 @@ class Job:
     One run to submit.
 
     :param name: Its name (unique in the command)
-    :param fn: Called on a worker as ``fn(channel, *args)``, in the run's folder ``channel.folder``; returns what
-        the command gets back with the run's files
+    :param fn: Called on a worker as ``fn(channel, *args)`` in ``channel.folder``; its result comes back with the files
     :param args: The arguments after the channel
     :param cpus: The CPUs it keeps busy (the ``CPU`` resource it asks for)
     :param pattern: The glob of the run's files in its folder (sent back, and sent to a run that starts again)
@@ -365,7 +327,7 @@ class Job:
 @dataclass
 class JobResult:
     """
-    A finished run, as the command gets it back.
+    A finished run.
 
     :param value: What the job's function returned
     :param files: The run's files at its end
@@ -420,10 +382,8 @@ def run_jobs(
     pending: set[Any] = set()
 
     def submit_what_fits() -> None:
-        # As a pool does: a run is submitted when the cluster has CPUs free for it, the next in order first. Dask
-        # assigns a task with resources to a worker when it is submitted (its queuing skips such tasks: distributed
-        # 2026.8.0), so runs submitted all at once were shared out up front, and one worker could sit idle at the end
-        # while another still had two runs to do (the main job's 9 runs: 25% longer than the same runs two at a time).
+        # Submit the next run in order once the cluster has CPUs free for it: Dask assigns tasks with resources at
+        # submission (its queuing skips them: distributed 2026.8.0), which left workers idle at the end.
         if not waiting:
             return
         lent = sum(float(info.get("resources", {}).get(CPU_RESOURCE, 0)) for info in _workers(client).values())

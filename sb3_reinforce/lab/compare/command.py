@@ -1,16 +1,10 @@
 """
-``sb3-reinforce compare``: REINFORCE vs PPO vs A2C (or any algorithm rl_zoo3 knows) on one environment, same seeds,
-same evaluation protocol. Every run is built by rl_zoo3's experiment manager from the algorithm's zoo entry, as
-``sb3-reinforce-zoo train`` builds it (see :mod:`sb3_reinforce.lab.compare.experiment`).
+``sb3-reinforce compare``: REINFORCE vs PPO vs A2C (or any rl_zoo3 algorithm) on one env, same seeds and evaluation.
 
     sb3-reinforce compare --env CartPole-v1 --seeds 3
 
-Every argument is checked, and every algorithm's hyperparameters are loaded, before any training starts.
-Runs go on Dask (:mod:`sb3_reinforce.lab.compare.cluster`): by default a local cluster of worker processes on
-127.0.0.1 (one per CPU core), or the cluster of ``--scheduler``; each run's files come back into
-``OUT/per_run/`` as it goes, wherever it ran. Finished runs are skipped when the command is run again, so a
-comparison can be resumed after an interruption or extended with more seeds or algorithms. ``OUT/results.csv``,
-``OUT/summary.md`` and ``OUT/learning_curve.png`` are rebuilt from all the finished runs at the end.
+Runs go on Dask (a local cluster, or ``--scheduler``'s) into ``OUT/per_run/``; a rerun skips finished runs, so it
+resumes or extends a comparison. The tables and plot are rebuilt from all finished runs at the end.
 """
 
 import argparse
@@ -52,8 +46,7 @@ __all__ = ["build_parser", "main", "parse_specs", "runs_to_do", "write_outputs"]
 
 #: Evaluations per run when --eval-freq is not given.
 DEFAULT_EVALS_PER_RUN = 20
-#: The largest seed a run may have: NumPy seeds must be < 2**32, and a run also seeds its evaluation environment
-#: ``seed + EVAL_SEED_OFFSET`` and its training environments ``seed .. seed + n_envs - 1``.
+#: The largest seed: NumPy seeds are < 2**32 and a run also uses ``seed + EVAL_SEED_OFFSET`` and ``seed + n_envs - 1``.
 MAX_SEED = 2**31 - 1
 
 
@@ -191,7 +184,7 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None, 
     if args.eval_freq is not None and args.eval_freq < 1:
         raise ValueError(f"--eval-freq must be >= 1, got {args.eval_freq}")
     eval_freqs = {algo: args.eval_freq or max(1, budgets[algo] // DEFAULT_EVALS_PER_RUN) for algo in algos}
-    # Seed-major order: whenever the command is stopped, the finished runs compare all algorithms on the same seeds.
+    # Seed-major order: a stopped command's finished runs compare all algorithms on the same seeds
     specs = [
         RunSpec(
             args.env,
@@ -228,12 +221,7 @@ def _train(channel: RunChannel, spec: RunSpec, vec_env: str, device: str = "cpu"
 
 
 def _write_files(out_dir: Path, files: dict[str, bytes]) -> None:
-    """
-    Write a run's files (relative paths) into ``out_dir``, each whole and then renamed into place. A JSON file (a
-    checkpoint's state, a run's summary) says the others are complete: an old one is removed first and the new one
-    written last, as :class:`~sb3_reinforce.lab.compare.runner.Checkpoint` does, so that a command stopped in between
-    leaves no JSON beside files of another evaluation.
-    """
+    """Write a run's files (relative paths) into ``out_dir`` atomically; JSON files (completion marks) go last."""
     for relative in files:
         if Path(relative).is_absolute() or ".." in Path(relative).parts:
             raise ValueError(f"a run sent back a file outside its folder: {relative!r}")
@@ -256,8 +244,7 @@ def _run_files(out_dir: Path, spec: RunSpec) -> dict[str, bytes]:
 
 def _run_all(todo: list[RunSpec], out_dir: Path, args: argparse.Namespace) -> dict[str, str]:
     """
-    Run ``todo`` on Dask (see :mod:`sb3_reinforce.lab.compare.cluster`), writing each run's files into ``out_dir`` as
-    they come back.
+    Run ``todo`` on Dask, writing each run's files into ``out_dir`` as they come back.
 
     :return: The runs that failed: name -> reason
     """
@@ -318,8 +305,7 @@ def _run_all(todo: list[RunSpec], out_dir: Path, args: argparse.Namespace) -> di
 
 def write_outputs(out_dir: Path, env_id: str, threshold: float | None) -> pd.DataFrame | None:
     """
-    Rebuild ``results.csv``, ``summary.csv``, ``summary.md`` and ``learning_curve.png`` from the finished
-    runs in ``out_dir / PER_RUN_DIR``.
+    Rebuild ``results.csv``, ``summary.csv``, ``summary.md`` and ``learning_curve.png`` from the finished runs.
 
     :param out_dir: The comparison's output folder
     :param env_id: The environment (for the plot's title)
@@ -380,7 +366,6 @@ def main(argv: list[str] | None = None) -> None:
         print(f"sb3-reinforce compare: error: {error}", file=sys.stderr)
         sys.exit(2)
     if write_outputs(out_dir, args.env, threshold) is not None:
-        # the terminal's table: summary.md's figures without the IQRs, to fit about 110 columns
         compact = summary_table(pd.read_csv(out_dir / "results.csv"), load_summaries(out_dir), threshold, compact=True)
         print(compact.to_string(index=False))
         print(f"Saved {out_dir / 'results.csv'}, {out_dir / 'summary.md'}, {out_dir / 'learning_curve.png'}")

@@ -1,22 +1,10 @@
 """
-A comparison's deterministic evaluation with all its episodes stepped together, giving the episodes and returns of
-SB3's ``evaluate_policy`` on the run's one evaluation environment.
-
-``evaluate_policy`` plays an evaluation's episodes one after another on one environment: a policy call per step of
-each episode. :class:`EpisodeBatch` plays them side by side on ``n`` copies of that environment (one policy call per
-step for all of them), each copy starting its episode where the one environment would have started it: before each
-evaluation, the one environment is reset as many times as ``evaluate_policy`` resets it, and the random generator
-it had before its ``i``-th reset is given to copy ``i``, whose reset then draws what that reset drew. The returns come
-back in episode order, so their mean and standard deviation are those ``evaluate_policy`` computes, to the bit where
-the network's outputs are (a batch and a single observation can round differently in the last bits of a continuous
-action), and the one environment is left as ``evaluate_policy`` would have left it: the sampled-action evaluation
-that follows on it plays the episodes it always played.
-
-This holds where an environment draws random numbers only when it resets (CartPole, Acrobot, MountainCar, Pendulum,
-the MuJoCo tasks), which is checked once, on a copy, by stepping it with random actions: an environment that also
-draws while it steps (LunarLander's engine particles) is evaluated by ``evaluate_policy``, one episode after another.
-The check is a sample: an environment that drew only in states that 200 random actions do not reach would pass it,
-and its batched episodes would then be other episodes than ``evaluate_policy``'s (as fair, not the same).
+A comparison's deterministic evaluation with its episodes stepped together (:class:`EpisodeBatch`), giving the episodes
+and returns of SB3's ``evaluate_policy`` on the run's one evaluation environment: copy ``i`` gets the generator that
+environment had before its ``i``-th reset, and the environment is left as ``evaluate_policy`` leaves it. Returns match
+to the bit where the network's outputs do (a batch may round continuous actions differently). Only for environments that
+draw random numbers on reset alone (CartPole, Pendulum, MuJoCo, ...), as sampled by :func:`draws_only_on_reset`; others
+(LunarLander) use ``evaluate_policy``.
 """
 
 import copy
@@ -46,8 +34,7 @@ def _generator_state(env: Any) -> dict[str, Any]:
 
 def draws_only_on_reset(env: Any, steps: int = PROBE_STEPS, seed: int = 0) -> bool:
     """
-    Whether a Gymnasium environment leaves its random generator untouched while it steps: reset, then up to
-    ``steps`` random actions (the action space's own generator, seeded), ending at the episode's end.
+    Whether a Gymnasium env's generator stays untouched over up to ``steps`` seeded random actions after a reset.
 
     :param env: The environment (it is reset and stepped)
     :param steps: The most steps taken
@@ -70,8 +57,7 @@ class EpisodeBatch:
     """
     The deterministic episodes of an evaluation on ``n`` copies of the evaluation environment at once.
 
-    :param evaluation_env: The run's evaluation environment (one environment; the sampled-action evaluation goes on
-        with it)
+    :param evaluation_env: The run's one evaluation environment (the sampled-action evaluation goes on with it)
     :param copies: ``n`` environments made as ``evaluation_env`` was (the same wrappers), one per episode
     """
 
@@ -85,11 +71,10 @@ class EpisodeBatch:
         self.monitored = is_vecenv_wrapped(copies, VecMonitor) or copies.env_is_wrapped(Monitor)[0]
 
     def _start_where_the_episodes_start(self) -> None:
-        """Give copy ``i`` the generator (or pending seed) of the evaluation env's ``i``-th reset; reset it as
-        ``evaluate_policy`` would: once at its start, once after each episode."""
+        """Give copy ``i`` the generator (or seed) of the ``i``-th reset ``evaluate_policy`` makes on the evaluation env."""
         for i in range(self.n_episodes):
-            # SB3's VecEnv keeps the seed of its next reset in the private `_seeds` (stable-baselines3 2.x, bounded
-            # below 3.0 in pyproject.toml): it has no public getter, and the very first reset is a seeded one
+            # SB3's private VecEnv._seeds holds the next reset's seed (stable-baselines3 2.x, bounded below 3.0): no
+            # getter
             self._many._seeds[i] = self._one._seeds[0]  # the seed of the very first reset, then None
             self._many.envs[i].unwrapped.np_random = copy.deepcopy(self._one.envs[0].unwrapped.np_random)
             self.evaluation_env.reset()
@@ -130,8 +115,7 @@ class EpisodeBatch:
 
 def episode_batch(evaluation_env: VecEnv, copies: VecEnv) -> EpisodeBatch | None:
     """
-    An :class:`EpisodeBatch` of ``copies``, where the environment draws random numbers only when it resets
-    (:func:`draws_only_on_reset`, checked on the first copy); else None, and ``copies`` is closed.
+    An :class:`EpisodeBatch` if the env passes :func:`draws_only_on_reset`; else None, and ``copies`` is closed.
 
     :param evaluation_env: The run's evaluation environment (one environment)
     :param copies: Environments made as ``evaluation_env`` was, one per episode of an evaluation

@@ -1,12 +1,7 @@
 """
-Each run of the comparison is built by rl_zoo3's ``ExperimentManager`` (through
-:class:`~sb3_reinforce.lab.zoo.exp_manager.ReinforceExperimentManager`), exactly as ``sb3-reinforce-zoo train``
-builds it from the same entry: the model, its training environments (wrappers, frame stack, ``VecNormalize``,
-``env_kwargs``, monitor), the config's callbacks and schedules. Only the evaluation is the comparison's own (a
-separate environment built by the same manager, seeded apart from the training ones).
-
-REINFORCE's hyperparameters come from this repository's ``zoo_configs/reinforce.yml`` (or ``--reinforce-config``);
-every other algorithm's from the *installed* rl_zoo3 package (``rl_zoo3/hyperparams/<algo>.yml``).
+Build each comparison run with rl_zoo3's ``ExperimentManager`` exactly as ``sb3-reinforce-zoo train`` does (only the
+evaluation environment is the comparison's own). REINFORCE's hyperparameters come from ``zoo_configs/reinforce.yml`` (or
+``--reinforce-config``), every other algorithm's from the *installed* rl_zoo3 (``rl_zoo3/hyperparams/<algo>.yml``).
 """
 
 import argparse
@@ -43,16 +38,15 @@ __all__ = [
 DEFAULT_ALGOS = ("reinforce", "ppo", "a2c")
 #: The evaluation environment's seed is the run's seed plus this (the training envs use seed .. seed + n_envs - 1).
 EVAL_SEED_OFFSET = 10_000
-#: How a run steps its training environments (rl_zoo3's ``--vec-env``): in its own process (SB3's ``DummyVecEnv``),
-#: one process per environment (``SubprocVecEnv``), or EnvPool's C++ threads (:mod:`sb3_reinforce.lab.envpool_vec_env`,
-#: its own implementation of the same environments). The environments and their seeds are the same for the first
-#: two; the evaluation environment is Gymnasium's with all three.
+#: How a run steps its training environments (rl_zoo3's ``--vec-env``): in its process (``DummyVecEnv``), one process
+#: per environment (``SubprocVecEnv``), or EnvPool's C++ threads (:mod:`sb3_reinforce.lab.envpool_vec_env`). The
+#: evaluation environment is Gymnasium's with all three.
 VEC_ENV_TYPES = ("dummy", "subproc", ENVPOOL)
 
 
 def check_vec_env(vec_env: str, env_id: str) -> None:
     """
-    Check, before anything is built, that ``env_id``'s training environments can be stepped as ``vec_env`` says.
+    Check, before anything is built, that ``env_id``'s training environments can be stepped as ``vec_env``.
 
     :param vec_env: One of :data:`VEC_ENV_TYPES`
     :param env_id: The environment id
@@ -67,12 +61,10 @@ def check_vec_env(vec_env: str, env_id: str) -> None:
 
 def check_device(device: str, here: bool = True) -> None:
     """
-    Check, before anything is built, that ``device`` names a PyTorch device (``"cpu"``, ``"cuda"``, ``"cuda:N"``,
-    ``"mps"``, or SB3's ``"auto"``: CUDA where there is one) and, with ``here``, that this machine has it.
+    Check, before anything is built, that ``device`` is cpu, cuda, cuda:N, mps or auto (and, with ``here``, present).
 
     :param device: Where the runs' networks compute
-    :param here: Whether the runs train on this machine (a local cluster); with a remote scheduler the workers'
-        machines decide
+    :param here: Whether the runs train on this machine (a local cluster); with a remote scheduler the workers decide
     :raises ValueError: another name (wherever the runs train), or a GPU this machine lacks
     """
     if device == "auto":
@@ -95,8 +87,7 @@ def check_device(device: str, here: bool = True) -> None:
 
 def run_cpus(n_envs: int, vec_env: str) -> int:
     """
-    The CPUs a run keeps busy: one per training environment when each steps in its own process (``subproc``), else
-    one (``dummy``; ``envpool``, whose one worker thread steps while the run waits, see :func:`build_run`).
+    The CPUs a run keeps busy: ``n_envs`` with ``subproc``, else one (``envpool`` steps while the run waits).
 
     :param n_envs: The run's training environments
     :param vec_env: How they are stepped, one of :data:`VEC_ENV_TYPES`
@@ -117,7 +108,7 @@ def known_algos() -> list[str]:
 
 @contextlib.contextmanager
 def _quiet() -> Iterator[None]:
-    # The zoo prints every hyperparameter it reads (and more): a comparison of many runs keeps its output short.
+    # The zoo prints every hyperparameter it reads: keep a many-run comparison's output short.
     with contextlib.redirect_stdout(io.StringIO()):
         yield
 
@@ -162,8 +153,7 @@ class ZooEntry:
     :param n_envs: Number of training environments
     :param n_timesteps: The entry's training budget
     :param hyperparams: The entry as written in the file (for the record)
-    :param fallback: ``None`` when the file has an entry for ``env_id``; else the one rl_zoo3 took in its place,
-        ``"default"`` (or ``"atari"`` for an Atari env): settings not tuned for this environment
+    :param fallback: None if the file has an entry for ``env_id``, else rl_zoo3's untuned ``"default"`` or ``"atari"``
     """
 
     algo: str
@@ -177,15 +167,14 @@ class ZooEntry:
 
 def read_entry(algo: str, env_id: str, config: Path | None = None, vec_env: str = "dummy") -> ZooEntry:
     """
-    Read and check ``algo``'s entry for ``env_id`` without building anything: a missing file or entry, a key
-    the algorithm does not take, (for REINFORCE) a bad value or (on EnvPool) a wrapper without EnvPool equivalent
-    raises a ``ValueError`` naming it.
+    Read and check ``algo``'s entry for ``env_id`` without building anything.
 
     :param algo: An algorithm of :func:`known_algos`
     :param env_id: The environment id
     :param config: The yml file (default: REINFORCE's zoo config, or the installed rl_zoo3's file for the algorithm)
     :param vec_env: How the training environments will be stepped, one of :data:`VEC_ENV_TYPES`
     :return: The entry
+    :raises ValueError: a missing file or entry, an unknown key, a bad REINFORCE value, or a wrapper EnvPool lacks
     """
     known = known_algos()
     if algo not in known:
@@ -218,8 +207,7 @@ class BuiltRun:
     eval_env: VecEnv
     callbacks: list[BaseCallback]
     entry: ZooEntry
-    #: ``eval_copies`` environments made as ``eval_env`` was, for :class:`~sb3_reinforce.lab.compare.evaluation.EpisodeBatch`
-    #: (None: not asked for)
+    #: ``eval_copies`` copies of ``eval_env``, for :class:`~sb3_reinforce.lab.compare.evaluation.EpisodeBatch` (or None)
     eval_copies: VecEnv | None = None
 
 
@@ -236,10 +224,8 @@ def build_run(
     eval_copies: int = 0,
 ) -> BuiltRun:
     """
-    Build one run through the zoo's experiment manager, as ``sb3-reinforce-zoo train --algo ALGO --env ENV
-    --seed SEED -n BUDGET --vec-env VEC_ENV`` would (its files go to ``log_folder``), plus an evaluation environment
-    made by the same manager (same wrappers, ``VecNormalize`` in evaluation mode, the standard ``env_kwargs``),
-    seeded ``seed + EVAL_SEED_OFFSET``, always a ``DummyVecEnv`` (it has one environment).
+    Build one run as ``sb3-reinforce-zoo train`` would, plus an evaluation ``DummyVecEnv`` from the same manager
+    (``VecNormalize`` in evaluation mode) seeded ``seed + EVAL_SEED_OFFSET``.
 
     :param algo: An algorithm of :func:`known_algos`
     :param env_id: The environment id
@@ -248,13 +234,9 @@ def build_run(
     :param log_folder: Where the zoo writes the run's own files (monitor logs, the config it used)
     :param config: The algorithm's yml file (default: as :func:`read_entry`)
     :param vec_env: How the training environments are stepped, one of :data:`VEC_ENV_TYPES`
-    :param envpool_threads: EnvPool's worker threads, with ``vec_env="envpool"``: 1 by default, as a run has one
-        core (one torch thread too, see :func:`~sb3_reinforce.lab.compare.runner.run`); 0 for EnvPool's default,
-        a thread per core, whose idle threads spin while the policy computes
-    :param device: Where the model's networks compute (PyTorch's device: ``"cpu"``, ``"cuda"``, ``"cuda:1"``,
-        ``"auto"``), see :func:`check_device`
-    :param eval_copies: Also make this many copies of the evaluation environment in one ``DummyVecEnv`` (the same
-        wrappers), for an evaluation's episodes stepped together (0: none)
+    :param envpool_threads: EnvPool's threads with ``vec_env="envpool"`` (1: a run's one core; 0: one per core)
+    :param device: Where the model's networks compute (PyTorch's device), see :func:`check_device`
+    :param eval_copies: Also make this many copies of the evaluation environment in one ``DummyVecEnv`` (0: none)
     :return: The run, ready to ``model.learn``
     """
     check_vec_env(vec_env, env_id)

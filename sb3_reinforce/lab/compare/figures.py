@@ -1,10 +1,4 @@
-"""
-Figures of a comparison, from its ``results.csv`` and run summaries: per algorithm, the steps and
-wall-clock seconds to reach the solve threshold (median and interquartile range over seeds, "not reached"
-counted as infinitely late), the final score (IQM with a 95% bootstrap CI), steps per second and peak
-memory; the learning-curve plot; and the same as a markdown table. Also the seed reproduction's
-episode-based figures.
-"""
+"""Tables and plots of comparisons (from ``results.csv`` and run summaries) and of the seed reproduction."""
 
 import json
 from collections.abc import Iterator, Sequence
@@ -77,14 +71,14 @@ def _median(values: Sequence[float], fmt: str) -> str:
 
 def load_summaries(out_dir: Path) -> dict[tuple[str, int], dict]:
     """
-    The JSON summaries of the finished runs in ``out_dir/per_run`` (unfinished runs' checkpoints left out).
+    The JSON summaries of the finished runs in ``out_dir/per_run``.
 
     :param out_dir: A comparison's output folder
     :return: {(algo, seed): summary}
     """
     summaries = {}
     for path in sorted((Path(out_dir) / PER_RUN_DIR).glob("*.json")):
-        if path.name.endswith(".checkpoint.json"):  # an unfinished run's checkpoint (see runner.Checkpoint)
+        if path.name.endswith(".checkpoint.json"):  # an unfinished run's checkpoint
             continue
         summary = json.loads(path.read_text())
         summaries[(summary["spec"]["algo"], int(summary["spec"]["seed"]))] = summary
@@ -92,11 +86,7 @@ def load_summaries(out_dir: Path) -> dict[tuple[str, int], dict]:
 
 
 def _per_seed(algo_df: pd.DataFrame) -> tuple[list[pd.DataFrame], list[pd.DataFrame]]:
-    """
-    One algorithm's evaluations, one frame per seed in evaluation order, and the same from the first evaluation
-    after training started: reaching the threshold counts from there, as an untrained deterministic policy can
-    score high by chance (PPO's initial policy balances CartPole on some seeds).
-    """
+    """One algorithm's evaluations per seed, and without the untrained one (an untrained policy can score by chance)."""
     per_seed = [seed_df.sort_values("eval_index") for _, seed_df in algo_df.groupby("seed")]
     return per_seed, [df[df["eval_index"] > 0] for df in per_seed]
 
@@ -115,8 +105,9 @@ def _finals(per_seed: Sequence[pd.DataFrame], column: str) -> list[float]:
 
 def learning_curves(algo_df: pd.DataFrame, column: str = "mean_return") -> tuple[np.ndarray, pd.DataFrame]:
     """
-    One algorithm's evaluations as curves: ``column`` by evaluation index (rows) and seed (columns; NaN where a
-    run still going has not reached a point), and the steps of each evaluation index (the median over seeds).
+    One algorithm's evaluations as curves.
+
+    :return: The median steps per evaluation index, and ``column`` by evaluation index and seed (NaN: not reached yet)
     """
     table = algo_df.pivot_table(index="eval_index", columns="seed", values=column)
     return algo_df.groupby("eval_index")["steps"].median().loc[table.index].to_numpy(), table
@@ -124,8 +115,7 @@ def learning_curves(algo_df: pd.DataFrame, column: str = "mean_return") -> tuple
 
 def best_mean(algo_df: pd.DataFrame, column: str) -> tuple[float, float, int]:
     """
-    Tianshou's metric (:func:`~sb3_reinforce.lab.stats.best_mean_over_seeds`) of one algorithm's evaluations: its
-    seeds' ``column`` by evaluation index, at the points every seed has reached (a run still going has fewer).
+    Tianshou's metric (:func:`~sb3_reinforce.lab.stats.best_mean_over_seeds`) over the points every seed reached.
 
     :param algo_df: One algorithm's rows of ``results.csv``
     :param column: ``"mean_return"`` (deterministic) or ``"mean_return_stochastic"``
@@ -148,14 +138,14 @@ def _seed_range(seeds: Sequence[int]) -> str:
 
 
 def _steps_short(steps: float) -> str:
-    """A budget to two significant digits: ``1M`` (for 1,015,808 steps: a run ends past its budget), ``500k``."""
+    """A budget to two significant digits: ``1M`` (for 1,015,808 steps), ``500k``."""
     rounded = float(f"{steps:.2g}")
     return f"{rounded / 1e6:g}M" if rounded >= 1e6 else f"{rounded / 1e3:g}k"
 
 
 def _first_of_each(folders: Sequence[Path]) -> Iterator[tuple[Path, str, float | None, str, pd.DataFrame]]:
     """
-    Each environment and algorithm of comparison folders once: from the first folder given that has it.
+    Each environment and algorithm of comparison folders once, from the first folder holding it.
 
     :param folders: Comparison output folders (``sb3-reinforce compare --out``)
     :return: (folder, env id, threshold, algorithm, its rows of ``results.csv``), in the folders' order
@@ -175,14 +165,10 @@ def _first_of_each(folders: Sequence[Path]) -> Iterator[tuple[Path, str, float |
 
 def overview_table(folders: Sequence[Path]) -> pd.DataFrame:
     """
-    The one-screen summary over comparisons: one row per environment and algorithm, from each folder's
-    ``results.csv`` and ``comparison.json``. Where several folders hold the same environment and algorithm, the
-    first folder given is used.
+    The one-screen summary over comparisons, one row per environment and algorithm (from the first folder holding it).
 
     :param folders: Comparison output folders (``sb3-reinforce compare --out``), in the order of the rows
-    :return: A table of strings: env (threshold), algorithm, budget, seeds reaching the threshold (which seeds),
-        median steps and seconds to reach it (not-reached seeds counted as infinitely late), final IQM of the
-        deterministic and of the sampled-action evaluations, and the folder
+    :return: A table of strings (budget, seeds and median steps/seconds to the threshold, final IQMs, folder)
     """
     rows = []
     for folder, env_id, threshold, algo, algo_df in _first_of_each(folders):
@@ -209,20 +195,14 @@ def overview_table(folders: Sequence[Path]) -> pd.DataFrame:
 
 def published_table(folders: Sequence[Path], published: pd.DataFrame, algo: str = "reinforce") -> pd.DataFrame:
     """
-    Published results beside this package's, by the published metric: per environment, each published number (a
-    column per source and budget) and, from the first of ``folders`` that ran ``algo`` on it, the best mean over seeds
-    (:func:`~sb3_reinforce.lab.stats.best_mean_over_seeds`) of the deterministic and of the sampled-action
-    evaluations, the final IQM with its 95% bootstrap CI, the seeds, and whether both figures are at or above every
-    published number of the same budget (Tianshou evaluates sampled actions, this package's protocol deterministic
-    ones: a row meets a number only by both).
+    Published results beside this package's best mean over seeds (deterministic and sampled actions), final IQM
+    and seeds. A row meets a published number of the same budget only if both of its figures do.
 
-    :param folders: Comparison output folders
-    :param published: One row per environment, source and budget: ``env_id``, ``source``, ``budget`` (steps),
-        ``mean`` (the published figure), ``std`` (its standard deviation over seeds, NaN where none is given) and
+    :param folders: Comparison output folders (the first that ran ``algo`` on an env is used)
+    :param published: Rows of ``env_id``, ``source``, ``budget`` (steps), ``mean``, ``std`` (NaN if none) and
         optionally ``approximate`` (True: read off a plot, shown as ``~``)
     :param algo: The algorithm of the folders to read
-    :return: A table of strings, one row per environment of ``published`` in its order ("not measured yet" where no
-        folder has it)
+    :return: A table of strings, one row per env of ``published`` in order ("not measured yet" where none ran)
     """
     ours: dict[str, tuple[Path, pd.DataFrame]] = {}
     for folder, env_id, _, run_algo, algo_df in _first_of_each(folders):
@@ -246,7 +226,7 @@ def published_table(folders: Sequence[Path], published: pd.DataFrame, algo: str 
         budget = float(np.median([df["steps"].iloc[-1] for df in per_seed]))
         columns = ["mean_return", "mean_return_stochastic"] if "mean_return_stochastic" in algo_df else ["mean_return"]
         figures = [best_mean(algo_df, column) for column in columns]
-        # Judged by the lower of the two evaluations: Tianshou's are of sampled actions, the issue asks deterministic
+        # The lower of the two: Tianshou evaluates sampled actions, this package deterministic ones
         best = min(figure[0] for figure in figures)
         row[f"{name} here"] = f"{_shown(figures[0])} ({_steps_short(budget)})"
         if len(figures) > 1:
@@ -272,8 +252,7 @@ def summary_table(
     :param results: The rows of ``results.csv``
     :param summaries: :func:`load_summaries`'s result (for steps/s and peak memory)
     :param threshold: The solve threshold (None: no threshold columns)
-    :param compact: Short headers, and medians without their IQR (the seeds reaching the threshold in a column of
-        their own): the terminal's table, about 110 characters wide; else ``summary.md``'s
+    :param compact: Short headers and medians without IQR (the terminal's table); else ``summary.md``'s
     :return: A table of strings, ready to print
     """
     rows = []
@@ -329,20 +308,17 @@ def to_markdown(table: pd.DataFrame) -> str:
 #: What the shaded band around each curve is (named in every plot's legend).
 BAND_LABEL = "band: 95% bootstrap CI of the mean over seeds"
 
-#: seaborn's band: the 95% bootstrap CI of the estimator over seeds, 500 resamples, a fixed seed (the same PNG twice)
+#: seaborn's band: 95% bootstrap CI over seeds, 500 resamples, fixed seed (reproducible PNGs)
 _BAND = dict(errorbar=("ci", 95), n_boot=500, seed=0)
 
 
 def _seeds_label(name: str, n_seeds: int) -> str:
-    """A curve's legend entry: what it is the mean of (one seed has no band: its CI has zero width)."""
+    """A curve's legend entry (one seed has no band)."""
     return f"{name}: mean over {n_seeds} seeds" if n_seeds > 1 else f"{name}: 1 seed (no band)"
 
 
 def _curves(results: pd.DataFrame) -> pd.DataFrame:
-    """
-    ``results.csv``'s rows for seaborn: each evaluation at the median over seeds of its steps (a run ends past its
-    budget by up to a batch, so the seeds' points would not line up), with its algorithm's display name.
-    """
+    """``results.csv``'s rows for seaborn: steps as the median over seeds (so points line up), display names."""
     steps = results.groupby(["algo", "eval_index"])["steps"].transform("median")
     return results.assign(steps=steps, algorithm=results["algo"].map(lambda algo: _ALGO_NAMES.get(algo, algo.upper())))
 
@@ -351,8 +327,7 @@ def _finish_plot(
     fig: Figure, ax: Axes, threshold: float | None, xlabel: str, ylabel: str, title: str, path: Path, band: bool = True
 ) -> Figure:
     """
-    Draw the solve threshold (if any), name the band in the legend, write the x axis with thousands separators
-    (``20,000``, no scientific offset), label, save the PNG and close the figure.
+    Draw the threshold and legend, format and label the axes, save the PNG and close the figure.
 
     :return: The figure (closed: its texts can still be read)
     """
@@ -371,8 +346,7 @@ def _finish_plot(
 
 def plot_learning_curves(results: pd.DataFrame, threshold: float | None, path: Path, title: str) -> Figure:
     """
-    Mean deterministic evaluation return over seeds and its 95% bootstrap CI (the band, named in the legend), x in
-    environment steps, one line per algorithm, the solve threshold drawn.
+    Plot the mean deterministic evaluation return over seeds (95% bootstrap CI band) by steps, one line per algorithm.
 
     :param results: The rows of ``results.csv``
     :param threshold: The solve threshold (None: not drawn)
@@ -390,9 +364,8 @@ def plot_learning_curves(results: pd.DataFrame, threshold: float | None, path: P
 
 def seed_table(episodes: pd.DataFrame, threshold: float, window: int = 100) -> pd.DataFrame:
     """
-    The seed reproduction's figures, one row per seed: episodes (and steps) until the mean training return
-    of the last ``window`` episodes reaches ``threshold``, and the best and final ``window``-episode means
-    (NaN for a seed with fewer than ``window`` episodes: no full window).
+    The seed reproduction's figures per seed: episodes and steps until the ``window``-episode mean training return
+    reaches ``threshold``, and the best and final such means (NaN with fewer than ``window`` episodes).
 
     :param episodes: One row per training episode (``seed``, ``episode``, ``steps``, ``episode_return``, ...)
     :param threshold: The solve threshold
@@ -421,10 +394,8 @@ def seed_table(episodes: pd.DataFrame, threshold: float, window: int = 100) -> p
 
 def plot_seed_curves(episodes: pd.DataFrame, threshold: float, path: Path, title: str, window: int = 100) -> Figure:
     """
-    The mean over seeds of each seed's ``window``-episode moving mean of the training return, with its 95%
-    bootstrap CI (the band, named in the legend), x in episodes, the threshold drawn. Where the seeds ran
-    different numbers of episodes (a seed stopped early, or one still running), one line per seed instead,
-    without a band. A symmetric-log y axis where some return is more than 100 times the threshold in size.
+    Plot the mean over seeds of the ``window``-episode moving mean training return (95% bootstrap CI band) by
+    episode; one line per seed, no band, if seeds ran different numbers of episodes. Symlog y for huge returns.
 
     :param episodes: One row per training episode
     :param threshold: The solve threshold
@@ -438,8 +409,7 @@ def plot_seed_curves(episodes: pd.DataFrame, threshold: float, path: Path, title
     moving = moving.assign(moving=moving.groupby("seed")["episode_return"].transform(lambda x: rolling_mean(x, window)))
     fig, ax = plt.subplots(figsize=(7, 4.5))
     if counts.nunique() > 1:
-        # Seeds that stopped early (sb3-reinforce seed --max-steps): a mean over seeds would end at the shortest
-        # one, so each seed gets its own line, as far as it went.
+        # Seeds that stopped early (--max-steps): a mean would end at the shortest one
         for seed, df in moving.groupby("seed"):
             ax.plot(df["episode"], df["moving"], label=f"seed {seed} ({len(df):,} episodes)")
     else:
@@ -448,7 +418,7 @@ def plot_seed_curves(episodes: pd.DataFrame, threshold: float, path: Path, title
         label = _seeds_label("seed's agent", len(counts))
         sns.lineplot(every.assign(curve=label), x="episode", y="moving", hue="curve", ax=ax, **_BAND)
     if episodes["episode_return"].abs().max() > 100 * max(abs(threshold), 1.0):
-        # Returns over orders of magnitude (MountainCar without a time limit: -870,000 to -300)
+        # Returns over orders of magnitude (e.g. MountainCar without a time limit)
         ax.set_yscale("symlog", linthresh=max(abs(threshold), 1.0))
     ylabel = f"training return, {window}-episode moving mean"
     return _finish_plot(fig, ax, threshold, "training episodes", ylabel, title, path, band=counts.nunique() == 1)
@@ -460,9 +430,8 @@ _OVERVIEW_COLUMNS = 4
 
 def plot_overview(folders: Sequence[Path], path: Path) -> Figure:
     """
-    Results at a glance: one panel per environment, one learning curve per algorithm (the IQM over seeds of the
-    deterministic evaluation return, with the 95% bootstrap CI of that IQM as its band), the solve threshold drawn;
-    the environments and algorithms of :func:`overview_table`, from the same folders.
+    One panel per environment of :func:`overview_table`, one curve per algorithm: the IQM over seeds of the
+    deterministic evaluation return, with its 95% bootstrap CI band.
 
     :param folders: Comparison output folders, in the order of the panels
     :param path: The PNG to write

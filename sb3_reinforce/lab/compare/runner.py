@@ -1,23 +1,9 @@
 """
-One run of the comparison: one algorithm, one seed. It trains on ``n_envs`` training environments and, every
-``eval_freq`` environment steps (all training environments counted), evaluates on a separate evaluation
-environment: ``n_eval_episodes`` episodes with deterministic actions, then as many with sampled actions.
-Each evaluation is appended at once to the run's CSV, so an interrupted run keeps what it measured.
-
-After each evaluation the run also saves a checkpoint (``<algo>_seed<seed>.checkpoint.zip``: the model with its
-optimizer and step count, ``VecNormalize``'s statistics, and the callback's counters in
-``.checkpoint.json``). A run interrupted after its first evaluation resumes from its last checkpoint when the
-comparison is run again with the same settings and hyperparameters, so a run longer than a session still
-finishes. A resumed run keeps its weights, optimizer state, step count and learning-rate schedule; the episodes
-that were running are lost, and the training environments are made again with the run's seed, so its random
-streams restart: its curve is not the one an uninterrupted run would have drawn, and its JSON lists the steps it
-resumed at (``resumed_at_steps``). Off-policy algorithms (SAC, TD3, DQN, ...) are not checkpointed: their
-replay buffer is not in ``model.save``, and an interrupted run of theirs starts over. The checkpoint files are
-deleted once the run is finished.
-
-With ``vec_env="subproc"`` the training environments step in processes of their own (SB3's ``SubprocVecEnv``); the
-run's CPU seconds and peak memory then count them too. A run may resume with the other kind: the environments and
-their seeds are the same, and its JSON lists the kind of each part (``vec_envs``, one per start and resume).
+One run of the comparison (one algorithm, one seed): train, and every ``eval_freq`` steps evaluate ``n_eval_episodes``
+deterministic then as many stochastic episodes on a separate environment, appending each evaluation to the run's CSV.
+After each evaluation a :class:`Checkpoint` is saved; a run interrupted after its first evaluation resumes from it when
+run again with the same settings (weights, optimizer, steps and schedules kept; running episodes lost, so its curve
+differs, see ``resumed_at_steps``). Off-policy runs are not checkpointed: ``model.save`` omits the replay buffer.
 """
 
 import contextlib
@@ -90,8 +76,7 @@ class RunSpec:
     :param budget: Training environment steps
     :param eval_freq: Evaluate every this many environment steps
     :param n_eval_episodes: Episodes per evaluation (deterministic, and again stochastic)
-    :param config_path: The algorithm's zoo yml (None: the default one, as
-        :func:`~sb3_reinforce.lab.compare.experiment.read_entry`)
+    :param config_path: The zoo yml (None: :func:`~sb3_reinforce.lab.compare.experiment.read_entry`'s default)
     """
 
     env_id: str
@@ -110,21 +95,17 @@ class RunSpec:
 
 class ComparisonEvalCallback(BaseCallback):
     """
-    Evaluate every ``eval_freq`` environment steps (and before training) on a separate environment, with
-    deterministic and with sampled actions, and append a row to ``csv_path``. Training wall-clock time
-    excludes the evaluations; peak memory is the resident set size (RSS) of this process plus the unique set size
-    (USS: the memory each adds) of its environment processes (``SubprocVecEnv``), if any.
+    Evaluate every ``eval_freq`` steps (and before training), deterministic then stochastic, appending a row to
+    ``csv_path``. Training time excludes evaluations; peak memory is :func:`process_tree_rss_mb`.
 
     :param spec: The run being evaluated
     :param eval_env: The evaluation environment (synchronized with a ``VecNormalize`` training env if any)
     :param csv_path: Where the rows are appended
     :param progress: Called with the environment steps done so far after each evaluation (or None)
     :param checkpoint: Saves the run after each evaluation (or None: no checkpoints)
-    :param resumed: The counters of the checkpoint this run resumes from (or None: a new run, evaluated
-        before training)
+    :param resumed: The counters of the checkpoint this run resumes from (or None: a new run, evaluated before training)
     :param heartbeat: Called at every step (or None); it may raise to stop the run (its last checkpoint kept)
-    :param episode_batch: Plays the deterministic episodes side by side, with the same returns (or None:
-        ``evaluate_policy`` plays them one after another), see :mod:`sb3_reinforce.lab.compare.evaluation`
+    :param episode_batch: Plays the deterministic episodes side by side, same returns (None: ``evaluate_policy``)
     """
 
     def __init__(
@@ -235,11 +216,7 @@ class ComparisonEvalCallback(BaseCallback):
 
 
 def process_tree_rss_mb(process: psutil.Process) -> float:
-    """
-    Memory (MiB) of ``process`` (its resident set size) and of the processes below it (a ``SubprocVecEnv``'s
-    environments: their unique set size, the memory only each of them holds; pages they share, such as the libraries
-    they load, are left out, so this is a lower bound where a process tree shares more than ``process``'s own pages).
-    """
+    """Memory (MiB) of ``process`` (RSS) and its descendants (USS: shared pages left out, so a lower bound)."""
     total = process.memory_info().rss
     for child in process.children(recursive=True):
         with contextlib.suppress(psutil.NoSuchProcess, psutil.AccessDenied):
@@ -248,11 +225,7 @@ def process_tree_rss_mb(process: psutil.Process) -> float:
 
 
 def process_tree_cpu_s(process: psutil.Process | None = None) -> float:
-    """
-    CPU seconds (user + system) of ``process`` (default: this one) and of every process below it: what a run with
-    ``SubprocVecEnv`` environments costs. A process that has ended counts once it has been waited for, in its
-    parent's ``children_user``/``children_system`` (a ``forkserver`` waits for the environment processes it forked).
-    """
+    """CPU seconds (user + system) of ``process`` (default: this one) and its descendants, ended ones once waited for."""
     process = process or psutil.Process()
     total = 0.0
     for member in [process, *process.children(recursive=True)]:
@@ -268,19 +241,14 @@ _RUNNING_STATISTICS = ("obs_rms", "ret_rms")
 
 class Checkpoint:
     """
-    A run's checkpoint in ``per_run/``: ``<name>.checkpoint.zip`` (``model.save``: weights, optimizer, step count,
-    schedules), ``<name>.checkpoint_vecnormalize.pkl`` (the training env's ``VecNormalize`` statistics, if it
-    has one) and ``<name>.checkpoint.json`` (the run's spec and hyperparameters, the callback's counters, the CPU
-    seconds so far, the steps of earlier resumes and the kind of vectorized environment of each part). Each file is
-    written whole and then renamed into place, the JSON last: a checkpoint without its JSON is incomplete and ignored.
+    A run's checkpoint in ``per_run/``: ``<name>.checkpoint.zip``, ``<name>.checkpoint_vecnormalize.pkl`` and
+    ``<name>.checkpoint.json``, each written whole then renamed, the JSON last: without it the checkpoint is ignored.
 
     :param runs_dir: The comparison's ``per_run/`` folder
     :param spec: The run
-    :param hyperparams: The run's zoo entry, as recorded in its summary (a checkpoint made with other values
-        is not resumed)
+    :param hyperparams: The run's zoo entry as in its summary (a checkpoint made with other values is not resumed)
     :param vec_env: The kind of vectorized training environment of this process (``"dummy"`` or ``"subproc"``)
-    :param cpu_at_start: :func:`process_tree_cpu_s` when the run started in this process (a worker process runs
-        one run after another: only the CPU seconds since count)
+    :param cpu_at_start: :func:`process_tree_cpu_s` when the run started in this process (counted from there)
     :param device: Where the model computes in this process (PyTorch's device name, as given)
     """
 
@@ -312,7 +280,7 @@ class Checkpoint:
         os.replace(temporary_model, self.model_path)
         vecnormalize = model.get_vec_normalize_env()
         if vecnormalize is not None:
-            # obs_rms exists only where observations are normalized (norm_obs=False has none)
+            # obs_rms exists only with norm_obs=True
             statistics = {name: vecnormalize.__dict__[name] for name in _RUNNING_STATISTICS if name in vecnormalize.__dict__}
             write_replacing(self.vecnormalize_path, pickle.dumps(statistics))
         state = dict(
@@ -327,10 +295,7 @@ class Checkpoint:
         write_replacing(self.state_path, json.dumps(state, indent=2).encode())
 
     def cpu_time_s(self) -> float:
-        """
-        CPU seconds of the run so far: this process's since the run started in it (environment processes included),
-        plus those of the processes it resumes.
-        """
+        """CPU seconds of the run so far, in this process (environment processes included) and those it resumes."""
         return self.cpu_time_before + process_tree_cpu_s() - self.cpu_at_start
 
     def exists(self) -> bool:
@@ -338,17 +303,14 @@ class Checkpoint:
         return self.state_path.exists() and self.model_path.exists()
 
     def load_state(self) -> dict[str, Any] | None:
-        """
-        The saved state, or None where there is no complete checkpoint of this very run (other settings or
-        hyperparameters, or a damaged file).
-        """
+        """The saved state, or None without a complete checkpoint of this very run (other settings, or a damaged file)."""
         if not self.exists():
             return None
         try:
             state = json.loads(self.state_path.read_text())
         except json.JSONDecodeError:
             return None
-        # A checkpoint written before the hyperparameters were recorded in it is taken as matching them
+        # Older checkpoints without hyperparameters match them
         same_run = state.get("spec") == self.spec.__dict__ and state.get("hyperparams", self.hyperparams) == self.hyperparams
         return state if same_run else None
 
@@ -369,10 +331,10 @@ class Checkpoint:
             vecnormalize.__dict__.update(statistics)
         self.cpu_time_before = float(state["cpu_time_s"])
         self.resumed_at_steps = [*state["resumed_at_steps"], int(restored.num_timesteps)]
-        # Checkpoints written before the kind was recorded were all made with DummyVecEnv
+        # Older checkpoints without the kind all used DummyVecEnv
         earlier = state.get("vec_envs", ["dummy"] * (1 + len(state["resumed_at_steps"])))
         self.vec_envs = [*earlier, self.vec_envs[-1]]
-        # Checkpoints written before the device was recorded all trained on the CPU
+        # Older checkpoints without the device all trained on the CPU
         self.devices = [*state.get("devices", ["cpu"] * len(earlier)), self.devices[-1]]
         return restored
 
@@ -402,10 +364,7 @@ def _keep_rows_before(csv_path: Path, eval_index: int) -> None:
 
 def code_version() -> dict[str, Any]:
     """
-    What code a run used: the package version and, in a git checkout, the commit and whether the tracked files
-    differed from it. Taken when the run starts, in the worker that runs it (a worker imports the package once:
-    commits made while a comparison runs reach the runs of workers started after them, and their JSON files
-    say so).
+    The package version and, in a git checkout, the commit and whether tracked files differ (taken in the run's worker).
 
     :return: ``{"sb3_reinforce": version, "git_commit": hash or None, "git_dirty": bool or None}``
     """
@@ -425,11 +384,8 @@ def code_version() -> dict[str, Any]:
 
 def exploration_noise_to_policy_device(model: BaseAlgorithm) -> None:
     """
-    Put gSDE's exploration matrices where the policy computes, with the values they have (nothing is drawn).
-
-    SB3 draws them when the policy is built, on the CPU, as plain attributes that ``policy.to(device)`` leaves
-    behind; the first rollout draws them again on the policy's device. A comparison evaluates the sampled-action
-    policy before that rollout, which on a GPU would multiply tensors of two devices.
+    Move gSDE's exploration matrices to the policy's device, values unchanged. SB3 draws them on the CPU as plain
+    attributes that ``policy.to(device)`` leaves behind, and the evaluation before the first rollout would mix devices.
 
     :param model: A built or loaded model (anything without gSDE is left as it is)
     """
@@ -451,21 +407,16 @@ def run(
     device: str = "cpu",
 ) -> dict[str, Any]:
     """
-    Train and evaluate one run; write ``out_dir/per_run/<algo>_seed<seed>.csv`` (one row per evaluation,
-    appended as it goes) and, once finished, ``<algo>_seed<seed>.json`` (the run's summary). A run with a
-    JSON file is finished; one with a checkpoint of the same settings resumes from it (see the module
-    docstring); anything else is started over.
+    Train and evaluate one run into ``out_dir/per_run/<algo>_seed<seed>.csv`` (appended per evaluation) and, once done,
+    ``.json`` (its summary). A run with a JSON is finished; a matching checkpoint is resumed; else the run starts over.
 
     :param spec: The run
     :param out_dir: The comparison's output folder
     :param progress: Called with the steps done so far after each evaluation (or None)
-    :param vec_env: How the training environments are stepped: ``"dummy"`` (in this process) or ``"subproc"``
-        (one process each); not part of the run's settings (a run may resume with the other)
-    :param heartbeat: Called at every training step (or None); it may raise to stop the run, whose last
-        checkpoint stays
-    :param device: Where the model's networks compute (PyTorch's device, ``"cpu"`` by default); not part of the
-        run's settings either (a run may resume on another). Only the CPU's random generators are checkpointed: a
-        run on a GPU, or resumed on another device, is not bit for bit the run it would have been
+    :param vec_env: ``"dummy"`` (in this process) or ``"subproc"`` (one process each); a run may resume with the other
+    :param heartbeat: Called at every training step (or None); it may raise to stop the run, whose last checkpoint stays
+    :param device: PyTorch device of the networks; a run may resume on another (only CPU random generators are
+        checkpointed: a GPU or cross-device run is not reproducible bit for bit)
     :return: The summary written to the JSON file
     """
     cpu_at_start = process_tree_cpu_s()
@@ -530,8 +481,7 @@ def run(
         train_time_s=round(train_time, 3),
         steps_per_s=round(model.num_timesteps / train_time, 1),
         peak_rss_mb=round(callback.peak_rss_mb, 1),
-        # CPU seconds of this process since the run started (building, training and evaluations) and of its
-        # environment processes, plus those of the processes it resumes: what the run costs on idle cores
+        # CPU seconds since the run started here (environment processes included), plus those of the runs it resumes
         cpu_time_s=round(process_tree_cpu_s() - cpu_at_start if checkpoint is None else checkpoint.cpu_time_s(), 1),
         vec_envs=[vec_env] if checkpoint is None else checkpoint.vec_envs,
         devices=[device] if checkpoint is None else checkpoint.devices,

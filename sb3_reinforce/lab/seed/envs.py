@@ -1,21 +1,13 @@
 """
-The environment side of the seed's scripts (github.com/gabrielgarza/openai-gym-policy-gradient):
-which time limit each ran with, and the CarRacing script's own pixel preprocessing and discrete actions.
+The environments as the seed's scripts (github.com/gabrielgarza/openai-gym-policy-gradient) ran them.
 
     env = make_seed_env("CarRacing-v3")
     model = REINFORCE(env=env, **seed_hyperparams("CarRacing-v3"))
 
-The seed ran every env unwrapped (no time limit). This re-run does the same where the missing limit is part of the
-experiment or where the seed's script bounded its episodes itself:
-
-- ``MountainCar``: no time limit, as the seed (``env.unwrapped``). A random policy reaches the flag eventually;
-  an episode that does not end within the model's ``max_rollout_steps`` raises ``RolloutLimitError``.
-- ``CarRacing``: episodes end after 502 steps (the script's ``if steps_taken_in_episode > 500: done = True``,
-  checked before the counter moves), observations are the script's 48x48 grayscale pixels flattened to 2,304
-  values in [0, 255] (unscaled, as the script fed them to its network), and the policy picks one of the three
-  action dimensions to set to 1 (steer right, gas, brake), as the script did.
-- The others (``LunarLander``, ``CartPole``, ``Acrobot``): the registered time limit, on purpose, instead of the
-  seed's unwrapped env and 120-second wall-clock cut (see :mod:`sb3_reinforce.lab.seed.reproduction`).
+- ``MountainCar``: no time limit (an overlong episode raises ``RolloutLimitError`` at ``max_rollout_steps``).
+- ``CarRacing``: 502-step episodes, 48x48 grayscale pixels flattened (2,304 values in [0, 255], unscaled),
+  one-hot actions (steer right, gas, brake).
+- Others: the registered time limit, a deliberate difference (docs/guide/seed.md).
 """
 
 import dataclasses
@@ -27,8 +19,7 @@ from gymnasium import spaces
 
 __all__ = ["SEED_EPISODE_LIMITS", "OneHotActions", "SeedPixels", "make_seed_env"]
 
-#: Episode length of each of the seed's scripts where this re-run follows it: ``None`` is no time limit (the
-#: seed's unwrapped env), a number the script's own cut. Families not listed keep the registered time limit.
+#: Episode limit per env family (``None``: no limit); families not listed keep the registered limit.
 SEED_EPISODE_LIMITS: dict[str, int | None] = {"MountainCar": None, "CarRacing": 502}
 
 #: The ITU-R 601 luma weights the seed's CarRacing script used for grayscale (``np.dot(obs[..., :3], w)``).
@@ -37,8 +28,7 @@ LUMA_WEIGHTS = np.array([0.299, 0.587, 0.114])
 
 class SeedPixels(gym.ObservationWrapper):
     """
-    The seed's CarRacing preprocessing: RGB to grayscale (luma weights), every second row and column kept
-    (96x96 to 48x48), flattened to one float vector of 2,304 values in [0, 255].
+    The seed's CarRacing preprocessing: grayscale, every second row and column, flattened (float, [0, 255]).
 
     :param env: An environment with ``(H, W, 3)`` image observations
     """
@@ -58,9 +48,7 @@ class SeedPixels(gym.ObservationWrapper):
 
 class OneHotActions(gym.ActionWrapper):
     """
-    Discrete actions for a ``Box`` action space as the seed's CarRacing script made them: action ``i`` sets
-    dimension ``i`` to 1 and the others to 0 (CarRacing: steer right, gas, brake; steering left is never
-    chosen, as in the seed).
+    The seed's discrete actions for a ``Box`` space: action ``i`` sets dimension ``i`` to 1, the others to 0.
 
     :param env: An environment with a one-dimensional ``Box`` action space whose bounds contain 0 and 1
     """
@@ -91,7 +79,7 @@ def make_seed_env(env_id: str, **kwargs: Any) -> gym.Env:
     if family not in SEED_EPISODE_LIMITS:
         return gym.make(env_id, **kwargs)
     limit = SEED_EPISODE_LIMITS[family]
-    # A spec without the registered limit: gym.make keeps its other wrappers (order enforcing, checker)
+    # Drop the registered limit from the spec so gym.make keeps its other wrappers
     spec = dataclasses.replace(gym.spec(env_id), max_episode_steps=None)
     env = gym.make(spec, max_episode_steps=limit, **kwargs)
     if family == "CarRacing":

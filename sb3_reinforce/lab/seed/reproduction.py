@@ -1,27 +1,11 @@
 """
-The seed re-run: the seed's agent (:func:`~sb3_reinforce.lab.seed.presets.seed_hyperparams`) trained for a fixed
-number of episodes, one training-episode return per row, x axis in episodes, as the blog post reported it.
+The seed reproduction: the seed's agent trained for a fixed number of episodes, one row per training episode.
 
     python -m sb3_reinforce.lab.seed.reproduction --env LunarLander-v3 --episodes 5000 --seeds 3 --out DIR
 
-Each seed runs in a worker process of a local Dask cluster on 127.0.0.1 (:mod:`sb3_reinforce.lab.compare.cluster`,
-``--workers`` of them) and appends one row per finished training episode to ``DIR/episodes_seedN.csv``, sent
-back to ``DIR`` every few seconds (so an interrupted run keeps its finished episodes, but those of its last
-seconds). A seed whose episodes are all in the file is skipped when the command is run again.
-
-The environments are made as the seed's scripts made them where that is part of the experiment
-(:func:`~sb3_reinforce.lab.seed.envs.make_seed_env`: MountainCar without a time limit, CarRacing's 502-step
-episodes, its pixels and its discrete actions). Differences from the seed, on purpose: the seed ran its other
-envs unwrapped too and cut a LunarLander episode after 120 s of wall-clock time or when its summed reward fell
-below -250. Here the registered time limit (LunarLander-v3: 1,000 steps, CartPole-v1: 500 steps) replaces the
-wall-clock cut, which depends on the machine and would let an unwrapped CartPole balance forever; the -250 cut
-is kept for LunarLander (``--reward-floor``, as a truncation).
-
-A seed can stop before its episodes are done: at the first update after ``--max-steps`` training steps, or
-when one episode outgrows the rollout buffer (``--max-episode-steps``, an env without a time limit whose policy
-never ends it). Its finished episodes are kept, ``episodes_seedN.stopped`` (JSON) says why and with which
-settings, and the seed counts as done when the command is run again with the same settings (other settings
-train it again).
+Seeds run on a local Dask cluster and write ``DIR/episodes_seedN.csv``; finished seeds are skipped on a rerun.
+A seed stopped early (``--max-steps``, ``--max-episode-steps``) keeps its episodes and writes why into
+``episodes_seedN.stopped`` (JSON); it counts as done on a rerun with the same settings.
 """
 
 import argparse
@@ -59,8 +43,7 @@ EPISODE_COLUMNS = ["env", "seed", "episode", "steps", "wall_time_s", "episode_re
 
 class RewardFloor(gym.Wrapper):
     """
-    End (truncate) an episode once its summed reward falls below ``floor``, as the seed's LunarLander script
-    did (``if episode_rewards_sum < -250: done = True``).
+    Truncate an episode once its summed reward falls below ``floor`` (the seed's LunarLander script used -250).
 
     :param env: The environment to wrap
     :param floor: The summed-reward floor
@@ -150,25 +133,22 @@ def run_seed(
     on_episodes: Callable[[int], None] | None = None,
 ) -> None:
     """
-    Train the seed's agent on ``env_id`` for ``n_episodes`` episodes and append its episodes to
-    ``out_dir / f"episodes_seed{seed}.csv"`` (one file per seed: no two processes write the same file).
+    Train the seed's agent for ``n_episodes`` episodes, writing them to ``out_dir / f"episodes_seed{seed}.csv"``.
 
     :param env_id: A registered Gymnasium env id
     :param seed: The random seed (model, env, torch)
     :param n_episodes: Number of training episodes
     :param out_dir: Output folder
     :param reward_floor: End an episode when its summed reward falls below this (None: never)
-    :param max_steps: Stop at the first update after this many training steps, even if fewer episodes are done
-        (None: no cap; the episodes of the last batch are finished first)
-    :param max_episode_steps: Stop when one episode reaches this many steps without ending (the model's
-        ``max_rollout_steps``: the rollout buffer holds the whole episode)
-    :param on_episodes: Called with the training steps so far each time finished episodes were appended (or None)
+    :param max_steps: Stop at the first update after this many training steps (None: no cap)
+    :param max_episode_steps: Stop when one episode reaches this many steps (the model's ``max_rollout_steps``)
+    :param on_episodes: Called with the training steps so far each time episodes were appended (or None)
     """
     th.set_num_threads(1)
     path = out_dir / f"episodes_seed{seed}.csv"
     stopped = _stopped_path(path)
     stopped.unlink(missing_ok=True)
-    # A partial file is from an interrupted run: it cannot be continued (the weights are gone), so start over.
+    # A partial file (interrupted run) cannot be continued: start over
     with path.open("w", newline="") as f:
         csv.writer(f).writerow(EPISODE_COLUMNS)
     model = REINFORCE(
@@ -179,7 +159,6 @@ def run_seed(
         **seed_hyperparams(env_id),
     )
     recorder = _EpisodeRecorder(path, env_id, seed, n_episodes, on_episodes=on_episodes)
-    # Stopped by the recorder after n_episodes, or by the step cap.
     try:
         model.learn(total_timesteps=10**9 if max_steps is None else max_steps, callback=recorder)
     except RolloutLimitError:
@@ -205,7 +184,7 @@ def _settings(n_episodes: int, max_steps: int | None, max_episode_steps: int) ->
 def _finished(path: Path, n_episodes: int, max_steps: int | None = None, max_episode_steps: int = 1_000_000) -> bool:
     stopped = _stopped_path(path)
     if stopped.exists():
-        # Stopped early: done for the settings it stopped under, trained again under others
+        # Stopped early: done only for the same settings
         return bool(json.loads(stopped.read_text())["settings"] == _settings(n_episodes, max_steps, max_episode_steps))
     if not path.exists():
         return False
@@ -229,7 +208,7 @@ def _run_seed_on_worker(
     max_steps: int | None,
     max_episode_steps: int,
 ) -> None:
-    """On a Dask worker: :func:`run_seed` in the seed's folder there, its episodes sent back every few seconds."""
+    """On a Dask worker: :func:`run_seed`, its episodes sent back every ``SEND_EVERY_S`` seconds."""
     next_send = time.monotonic() + SEND_EVERY_S
 
     def on_episodes(steps: int) -> None:
@@ -280,7 +259,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> None:
     """Command line entry point (see the module docstring)."""
-    # The compare extra's modules (Dask runs the seeds), imported before anything is written
+    # The compare extra's modules, imported before anything is written
     from sb3_reinforce.lab.compare.cluster import Job, JobResult, open_client, run_jobs, sigterm_as_interrupt
     from sb3_reinforce.lab.seed.summary import render_seed
 
@@ -316,7 +295,7 @@ def main(argv: list[str] | None = None) -> None:
         write(result.files)
 
     try:
-        # `kill PID` stops the command as Ctrl-C does: the seeds stop, the cluster is closed
+        # `kill PID` stops the command as Ctrl-C does
         with sigterm_as_interrupt(), open_client(None, max(1, min(args.workers, len(jobs))), 1) as client:
             failures = run_jobs(client, jobs, lambda name, steps, files: write(files), on_result)
     except KeyboardInterrupt:

@@ -1,7 +1,4 @@
-"""
-The report of a seed re-run's folder (``sb3-reinforce seed --out``): its per-seed episode files merged, its table
-and learning curve, and why a seed stopped early.
-"""
+"""The report of a seed reproduction's folder (``sb3-reinforce seed --out``): table, learning curve, early stops."""
 
 import json
 import re
@@ -31,7 +28,7 @@ def _format_seed_table(table: pd.DataFrame) -> pd.DataFrame:
         if column.startswith(("episodes to", "steps to")):
             shown[column] = [("not reached" if pd.isna(v) or v == float("inf") else f"{int(v):,}") for v in shown[column]]
         elif "mean" in column or column == "wall-clock s":
-            # A window mean of a seed with fewer episodes than the window is NaN (see seed_table)
+            # NaN: fewer episodes than the window
             window = re.search(r"(\d+)-episode", column)
             missing = f"n/a (fewer than {window.group(1)} episodes)" if window else "n/a"
             shown[column] = [missing if pd.isna(v) else f"{v:,.1f}" for v in shown[column]]
@@ -42,14 +39,13 @@ def _format_seed_table(table: pd.DataFrame) -> pd.DataFrame:
 
 def render_seed(out_dir: Path) -> str:
     """
-    Merge a seed reproduction's per-seed files into ``episodes.csv``, write ``summary.csv``, ``summary.md``
-    and ``learning_curve.png``.
+    Merge the per-seed files into ``episodes.csv``; write ``summary.csv``, ``summary.md``, ``learning_curve.png``.
 
     :param out_dir: The folder of ``sb3-reinforce seed --out``
     :return: The markdown table
     """
     frames = [pd.read_csv(path) for path in sorted(out_dir.glob("episodes_seed*.csv"))]
-    # Seeds that stopped before their episodes were done (sb3-reinforce seed --max-steps/--max-episode-steps)
+    # Seeds stopped early by --max-steps/--max-episode-steps
     stops = "".join(f"- {stopped_reason(path)}\n" for path in sorted(out_dir.glob("episodes_seed*.stopped")))
     finished = [f for f in frames if len(f)]
     if not finished:

@@ -1,10 +1,6 @@
 """
-The ``sb3-reinforce-zoo`` command: rl_zoo3's commands, with REINFORCE registered as ``--algo reinforce``.
-
-Each command is rl_zoo3's own (same flags, same outputs); this module registers REINFORCE first, finds the
-shipped agents for ``-f rl-trained-agents`` (:mod:`sb3_reinforce.lab.zoo.trained_agents`), and works around what
-rl_zoo3's scripts assume (a clone of the zoo, ``ffmpeg`` on the PATH) or what breaks them upstream (see
-:func:`_hub_compatibility`).
+The ``sb3-reinforce-zoo`` command: rl_zoo3's commands (same flags and outputs) with REINFORCE registered as
+``--algo reinforce``, the shipped agents found for ``-f rl-trained-agents``, and workarounds for rl_zoo3's scripts.
 """
 
 import argparse
@@ -36,11 +32,8 @@ PROG = "sb3-reinforce-zoo"
 
 def register() -> None:
     """
-    Register REINFORCE in rl_zoo3 as ``reinforce``: its algorithm table (``ALGOS``, read by train, enjoy,
-    record-video, benchmark), its Optuna sampler and converter, and the experiment manager that
-    ``rl_zoo3.train`` uses (:class:`~sb3_reinforce.lab.zoo.exp_manager.ReinforceExperimentManager`).
-    Safe to call more than once. The zoo builds its ``--algo`` choices when a command parses its
-    arguments, so this must run before.
+    Register REINFORCE in rl_zoo3 as ``reinforce`` (``ALGOS``, Optuna sampler and converter, experiment manager).
+    Call it before a zoo command parses its arguments; safe to call more than once.
     """
     import rl_zoo3.train
     from rl_zoo3.hyperparams_opt import HYPERPARAMS_CONVERTER, HYPERPARAMS_SAMPLER
@@ -61,10 +54,7 @@ def _zoo_function(module: str, name: str) -> Callable[[], None]:
 
 
 def _zoo_script(module: str, *contexts: Callable[[], contextlib.AbstractContextManager[Any]]) -> Callable[[], None]:
-    """
-    A command that runs one of rl_zoo3's scripts (a module with a ``__main__`` block) as its command line would,
-    inside ``contexts`` (the workarounds below); a context that yields a dict gives the script's globals.
-    """
+    """A command that runs an rl_zoo3 script as ``__main__`` inside ``contexts`` (a yielded dict: its globals)."""
 
     def command() -> None:
         with contextlib.ExitStack() as stack:
@@ -75,18 +65,13 @@ def _zoo_script(module: str, *contexts: Callable[[], contextlib.AbstractContextM
     return command
 
 
-#: rl_zoo3's scripts that start another of its scripts in a subprocess, by a command line that only works from a
-#: clone of the zoo and does not know REINFORCE (benchmark: ``python enjoy.py``; record_training: ``python -m
-#: rl_zoo3.record_video``; rl_zoo3 2.7 to 2.9.2, pyproject's bound) -> this package's command that runs it instead.
+#: rl_zoo3 (2.7 to 2.9.2) subprocess command lines that need a zoo clone and lack REINFORCE -> this package's command.
 _SUBPROCESS_COMMANDS = {("python", "enjoy.py"): "enjoy", ("python", "-m", "rl_zoo3.record_video"): "record-video"}
 
 
 @contextlib.contextmanager
 def _subprocesses_through_this_entry_point() -> Iterator[None]:
-    """
-    Run the zoo's script-in-a-subprocess calls (``_SUBPROCESS_COMMANDS``) as ``<this python> -m sb3_reinforce.lab.zoo
-    COMMAND ...`` instead. Any other call is left alone.
-    """
+    """Run the zoo's ``_SUBPROCESS_COMMANDS`` as ``<this python> -m sb3_reinforce.lab.zoo COMMAND ...`` instead."""
     original_call = subprocess.call
 
     def call(command: Any, *args: Any, **kwargs: Any) -> int:
@@ -107,9 +92,8 @@ def _subprocesses_through_this_entry_point() -> Iterator[None]:
 @contextlib.contextmanager
 def _ffmpeg_on_path() -> Iterator[None]:
     """
-    rl_zoo3's record_training and huggingface_sb3's replay video call the ``ffmpeg`` program by name (``os.system``;
-    rl_zoo3 2.7 to 2.9.2, sb3-team-hf-integration 3.x). Where the PATH has none, put the one that moviepy's dependency
-    imageio-ffmpeg ships there, as ``ffmpeg``.
+    Put imageio-ffmpeg's binary on the PATH as ``ffmpeg`` if missing (rl_zoo3 2.7 to 2.9.2's record_training and
+    sb3-team-hf-integration 3.x's replay video call it by name).
     """
     if shutil.which("ffmpeg") is not None:
         yield
@@ -128,8 +112,7 @@ def _ffmpeg_on_path() -> Iterator[None]:
 
 def _hub_metadata(model_name: str, env_id: str, mean_reward: float, std_reward: float) -> dict[str, Any]:
     """
-    The model card's metadata (tags and the evaluation result) that rl_zoo3's push_to_hub writes, built with
-    huggingface_hub's public ``metadata_eval_result``, as huggingface_sb3 2.x's ``generate_metadata`` did.
+    The model card's metadata for push_to_hub, as huggingface_sb3 2.x's ``generate_metadata`` built it.
 
     :param model_name: The algorithm's class name
     :param env_id: The environment's id
@@ -163,23 +146,18 @@ _CARD_COMMANDS = (
 @contextlib.contextmanager
 def _hub_compatibility() -> Iterator[None]:
     """
-    What rl_zoo3 2.9.2's Hub scripts need from the packages they run with, for the time they run:
+    Patches for rl_zoo3 2.9.2's Hub scripts while they run:
 
-    - push_to_hub imports ``generate_metadata`` from huggingface_sb3, which its successor sb3-team-hf-integration 3.x
-      (the distribution rl_zoo3 2.9.2 requires) no longer has (an ``ImportError`` before anything runs): provide it
-      (:func:`_hub_metadata`), only where it is missing;
-    - push_to_hub's model card tells readers to run ``python -m rl_zoo3.enjoy ...``, which does not know REINFORCE:
-      the card names this command instead (rewritten as ``metadata_save`` writes the card's metadata);
-    - load_from_hub treats a repository without ``vec_normalize.pkl`` as "no normalization" by catching requests'
-      ``HTTPError``, but huggingface_hub 1.x and later raise its own ``EntryNotFoundError`` (not a requests error):
-      turn that one into requests' ``HTTPError``, which is what the script expects.
+    - provide ``generate_metadata``, which sb3-team-hf-integration 3.x (huggingface_sb3) dropped, where missing;
+    - the model card names this command instead of ``python -m rl_zoo3.enjoy``, which lacks REINFORCE;
+    - turn huggingface_hub 1.x's ``EntryNotFoundError`` into the requests ``HTTPError`` load_from_hub expects.
     """
     import huggingface_hub.repocard
     import huggingface_sb3
     import requests
     from huggingface_hub.errors import EntryNotFoundError
 
-    # the module (the package's attribute of that name is its push_to_hub function)
+    # the module (the package attribute of that name is a function)
     hf_push = importlib.import_module("huggingface_sb3.push_to_hub")
 
     original_load, original_metadata_save = huggingface_sb3.load_from_hub, huggingface_hub.repocard.metadata_save
@@ -212,17 +190,15 @@ def _hub_compatibility() -> Iterator[None]:
             del hf_push.generate_metadata
 
 
-#: The copy of its table that rl_zoo3's benchmark writes into the current directory (its own repository's root).
+#: The copy of its table that rl_zoo3's benchmark writes into the current directory.
 _ROOT_TABLE = "benchmark.md"
 
 
 @contextlib.contextmanager
 def _table_stays_in_benchmark_dir() -> Iterator[dict[str, Any]]:
     """
-    rl_zoo3's benchmark (2.7 to 2.9.2) writes its table to ``--benchmark-dir``/benchmark.md and then, without
-    ``--test-mode``, copies it to ``./benchmark.md`` (``shutil.copy(tmp_path, "benchmark.md")``): in the zoo's own
-    clone that is its README's table, anywhere else a stray file in the current directory. Leave that copy out (the
-    table is already in the benchmark folder) and drop the line that announces it.
+    Skip rl_zoo3 2.7 to 2.9.2 benchmark's copy of its table to ``./benchmark.md`` (a stray file outside a zoo clone)
+    and its announcement; the table stays in ``--benchmark-dir``.
 
     :return: Globals for ``runpy.run_module`` (a ``print`` that drops the announcement of the copy)
     """
@@ -244,7 +220,7 @@ def _table_stays_in_benchmark_dir() -> Iterator[dict[str, Any]]:
         shutil.copy = original_copy
 
 
-#: Command name -> the rl_zoo3 command it runs (with the workarounds above where rl_zoo3's script needs them).
+#: Command name -> the rl_zoo3 command it runs, with the workarounds above.
 COMMANDS: dict[str, Callable[[], None]] = {
     "train": _zoo_function("rl_zoo3.train", "train"),
     "enjoy": _zoo_function("rl_zoo3.enjoy", "enjoy"),
@@ -257,9 +233,9 @@ COMMANDS: dict[str, Callable[[], None]] = {
     "push_to_hub": _zoo_script("rl_zoo3.push_to_hub", _hub_compatibility, _ffmpeg_on_path),
     "load_from_hub": _zoo_script("rl_zoo3.load_from_hub", _hub_compatibility),
 }
-# Commands that take one --env (checked here first, for a short error instead of a traceback).
+# Commands that take one --env (checked first, for a one-line error)
 _ENV_COMMANDS = ("train", "enjoy", "record-video", "record_training", "push_to_hub", "load_from_hub")
-# Commands that load a trained agent from -f/--folder (default rl-trained-agents: see trained_agents.agents_folder).
+# Commands that load a trained agent from -f/--folder (default rl-trained-agents)
 _AGENT_COMMANDS = ("enjoy", "record-video", "record_training", "push_to_hub")
 
 USAGE = f"""usage: {PROG} {{{",".join(COMMANDS)}}} [zoo arguments ...]
@@ -305,10 +281,8 @@ _VIDEO_COMMANDS = ("record-video", "record_training")
 
 def _shipped_agents_flag(command: str, args: list[str]) -> list[str]:
     """
-    Point ``-f rl-trained-agents`` (given, or the zoo's default) at the folder that holds the agent for
-    ``--algo reinforce``: the current directory's, else the shipped one; raise ZooUsageError if there is none.
-    Videos of a shipped agent go to ``./videos/reinforce-<env>/`` unless ``-o`` says where, not into the package
-    or the repository's ``rl-trained-agents/``.
+    Point ``-f rl-trained-agents`` at the folder holding the ``--algo reinforce`` agent (raise ZooUsageError if none).
+    Videos of a shipped agent go to ``./videos/reinforce-<env>/`` unless ``-o`` is given.
 
     :param command: The zoo command
     :param args: Its arguments
@@ -411,7 +385,7 @@ def _run(command: str, args: list[str]) -> int:
         print(f"{PROG} {command}: error: {error}", file=sys.stderr)
         return 2
     except SystemExit as exit_:
-        # argparse (--help, an invalid --algo choice, ...) and the zoo's scripts exit this way
+        # argparse and the zoo's scripts exit this way
         if exit_.code is None or isinstance(exit_.code, int):
             return exit_.code or 0
         print(exit_.code, file=sys.stderr)

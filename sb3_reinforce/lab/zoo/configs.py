@@ -1,8 +1,5 @@
 """
-Where the REINFORCE hyperparameter files (``zoo_configs/*.yml``) are, in a source checkout and once installed.
-
-The files live in the repository's ``zoo_configs/`` folder. A wheel ships them inside the package, as
-``sb3_reinforce/lab/zoo/configs/`` (``pyproject.toml`` maps that package folder to ``zoo_configs/``).
+The REINFORCE hyperparameter files: ``zoo_configs/*.yml`` in a checkout, ``sb3_reinforce/lab/zoo/configs/`` installed.
 """
 
 from pathlib import Path
@@ -15,9 +12,9 @@ CONFIG_NAMES = ("reinforce", "reinforce_seed")
 
 def shipped_dirs(package_folder: str, source_folder: str) -> list[Path]:
     """
-    Where a folder of files shipped with the package is: inside the installed package, then in a source checkout.
+    The candidate paths of a folder shipped with the package.
 
-    :param package_folder: Its name inside ``sb3_reinforce/lab/zoo/`` once installed (``pyproject.toml`` maps it)
+    :param package_folder: Its name inside ``sb3_reinforce/lab/zoo/`` once installed
     :param source_folder: Its name at the repository's root
     :return: Both candidate paths, the installed one first
     """
@@ -29,7 +26,7 @@ def config_dirs() -> list[Path]:
     """
     The folders searched for the hyperparameter files, first match wins.
 
-    :return: The installed package's ``configs/`` folder, then the source checkout's ``zoo_configs/``.
+    :return: The installed ``configs/`` folder, then the checkout's ``zoo_configs/``
     """
     return shipped_dirs("configs", "zoo_configs")
 
@@ -38,8 +35,7 @@ def config_path(name: str = "reinforce") -> Path:
     """
     Path of one of the shipped hyperparameter files.
 
-    :param name: One of ``CONFIG_NAMES``: ``"reinforce"`` (the zoo's default for ``--algo reinforce``) or
-        ``"reinforce_seed"`` (the seed's setups)
+    :param name: ``"reinforce"`` (the zoo's default for ``--algo reinforce``) or ``"reinforce_seed"`` (the seed's)
     :return: The path of ``<name>.yml``
     """
     if name not in CONFIG_NAMES:

@@ -1,20 +1,11 @@
 """
-rl_zoo3's ``ExperimentManager``, with what REINFORCE needs on top.
+rl_zoo3's ``ExperimentManager`` with what REINFORCE needs on top:
 
-- ``--algo reinforce`` reads ``zoo_configs/reinforce.yml`` unless ``-conf/--conf-file`` is given.
-- Config errors are found before anything is built: a missing file or env entry, a key the algorithm's
-  constructor does not accept, or (for REINFORCE) an invalid value raise :class:`ZooUsageError` with the
-  file, the env id and the allowed keys or values.
-- ``--optimize`` applies the trial's sampled ``n_envs`` and observation normalization (searched where the
-  config has no ``normalize`` of its own), records which worker (host:pid) ran each trial,
-  and prunes trials whose hyperparameters make REINFORCE fail (non-finite loss, a rollout too long)
-  instead of ending the whole study.
-- ``--optimize`` with a database ``--storage`` (PostgreSQL, any algorithm) runs with heartbeats, retries the
-  trials of dead workers and reconnects after a dropped connection (see :mod:`sb3_reinforce.lab.zoo.storage`);
-  with ``--max-total-trials``, every worker keeps going until the study holds exactly that many finished
-  trials, running the retries of workers that died.
-- ``vec_env_type="envpool"`` (``--vec-env envpool``) steps the training environments in EnvPool
-  (:mod:`sb3_reinforce.lab.envpool_vec_env`), the entry's wrappers done there; evaluation environments stay Gymnasium's.
+- ``--algo reinforce`` reads ``zoo_configs/reinforce.yml`` unless ``-conf/--conf-file`` is given; config errors raise
+  :class:`ZooUsageError` before anything is built.
+- ``--optimize`` also samples ``n_envs`` and observation normalization, and prunes trials that make REINFORCE fail;
+  a database ``--storage`` is fault-tolerant (:mod:`sb3_reinforce.lab.zoo.storage`).
+- ``--vec-env envpool`` trains on EnvPool (:mod:`sb3_reinforce.lab.envpool_vec_env`); evaluation stays on Gymnasium.
 """
 
 import contextlib
@@ -58,10 +49,10 @@ __all__ = ["ALGO_NAME", "ReinforceExperimentManager", "ZooUsageError"]
 #: The name of REINFORCE in the zoo's ``--algo``.
 ALGO_NAME = "reinforce"
 
-# Keys of a zoo config that the zoo itself consumes (they never reach the algorithm's constructor).
+# Keys of a zoo config that the zoo itself consumes (never passed to the algorithm).
 _ZOO_KEYS = {"env", "tensorboard_log", "seed", "verbose", "device"}
 
-# Part of this process's worker name in a distributed study (a forked child differs by its PID)
+# Part of this process's worker name in a distributed study
 _PROCESS_TOKEN = uuid.uuid4().hex[:8]
 
 
@@ -113,10 +104,7 @@ def check_reinforce_values(hyperparams: dict[str, Any]) -> None:
 
 
 class ReinforceExperimentManager(ExperimentManager):
-    """
-    rl_zoo3's ``ExperimentManager`` (same arguments) with REINFORCE's default config, early config checks
-    and REINFORCE-aware hyperparameter optimization (see the module docstring).
-    """
+    """rl_zoo3's ``ExperimentManager`` (same arguments) with REINFORCE's defaults and checks (see the module docstring)."""
 
     #: Heartbeats and retries of studies in a database (``sb3-reinforce-zoo train`` sets it from its flags).
     fault_tolerance: FaultTolerance = FaultTolerance()
@@ -124,14 +112,11 @@ class ReinforceExperimentManager(ExperimentManager):
     config_flag: str = "-conf/--conf-file"
     #: How long a worker keeps trying to reach a database that went away before it gives up (seconds).
     reconnect_timeout: float = 300.0
-    #: Train on EnvPool whatever ``vec_env_type`` says (``sb3-reinforce-zoo train --vec-env envpool`` sets it:
-    #: rl_zoo3's own flag offers dummy and subproc only).
+    #: Train on EnvPool whatever ``vec_env_type`` says (rl_zoo3's own flag offers dummy and subproc only).
     envpool: bool = False
-    #: EnvPool's worker threads for the training environments (0: EnvPool's default, one per core;
-    #: ``sb3-reinforce compare`` sets 1, as a run has one core there).
+    #: EnvPool's worker threads (0: EnvPool's default, one per core; ``sb3-reinforce compare`` sets 1).
     envpool_threads: int = 0
-    #: The entry :meth:`read_hyperparameters` read: ``None`` for the env's own, or the fallback rl_zoo3 took in a
-    #: yml file without one (``"atari"`` or ``"default"``).
+    #: ``None`` if the env has its own entry, else rl_zoo3's fallback (``"atari"`` or ``"default"``).
     fallback_entry: str | None = None
 
     def __init__(self, args: Any, algo: str, *positional: Any, config: str | None = None, **kwargs: Any) -> None:
@@ -227,9 +212,7 @@ class ReinforceExperimentManager(ExperimentManager):
 
     def create_envs(self, n_envs: int, eval_env: bool = False, no_log: bool = False) -> VecEnv:
         """
-        rl_zoo3's environments; on EnvPool, the training ones are EnvPool's (with the entry's wrappers, see
-        :func:`~sb3_reinforce.lab.envpool_vec_env.make_envpool_vec_env`) and the evaluation ones stay Gymnasium's
-        (``DummyVecEnv``), the reference for scores.
+        rl_zoo3's environments; on EnvPool the training ones are EnvPool's, the evaluation ones stay Gymnasium's.
 
         :param n_envs: Number of environments
         :param eval_env: Whether they evaluate
@@ -258,14 +241,8 @@ class ReinforceExperimentManager(ExperimentManager):
 
     def objective(self, trial: optuna.Trial) -> float:
         """
-        Train and evaluate one trial (rl_zoo3's objective). For REINFORCE, the trial's ``n_envs`` sample
-        sets the number of environments, its ``normalize_observations`` sample (where the config has no
-        ``normalize``) wraps them in ``VecNormalize`` of the observations, and a failure caused by the sampled
-        hyperparameters prunes the trial.
-
-        A trial that fails by an error of its own (not one of the database) records it in its ``error`` user
-        attribute: it is not retried (:func:`~sb3_reinforce.lab.zoo.storage.owes_retry`); so does a trial whose
-        objective value is not finite (Optuna records it FAIL).
+        Train and evaluate one trial (for REINFORCE, sampling ``n_envs`` and normalization too). Its own error (not the
+        database's) or a non-finite value is recorded in its ``error`` user attribute: it is not retried.
 
         :param trial: The Optuna trial
         :return: The last mean evaluation reward
@@ -315,11 +292,7 @@ class ReinforceExperimentManager(ExperimentManager):
             raise SurplusTrial(f"Trial {trial.number}: {reason}")
 
     def hyperparameters_optimization(self) -> None:
-        """
-        rl_zoo3's optimization; with a database storage, a fault-tolerant one: the trials run one at a time
-        against a storage with heartbeats and retries (:func:`~sb3_reinforce.lab.zoo.storage.open_database_storage`),
-        then rl_zoo3's own code writes the report of the finished study.
-        """
+        """rl_zoo3's optimization; with a database storage, fault-tolerant (:mod:`sb3_reinforce.lab.zoo.storage`)."""
         if not self.optimize_hyperparameters or not is_database_url(self.storage):
             return super().hyperparameters_optimization()
         assert self.storage is not None
@@ -348,9 +321,8 @@ class ReinforceExperimentManager(ExperimentManager):
 
     def _run_trials(self, study: optuna.Study, storage: FaultTolerantStorage) -> None:
         """
-        Run trials until this worker's ``n_trials`` are done or, with ``max_total_trials``, until the study
-        holds that many finished (complete or pruned) trials. A worker that has nothing left to start waits
-        for the others' running trials: if their worker dies, the retry is run here.
+        Run trials (dead workers' retries included) until ``n_trials`` here, or ``max_total_trials`` in the study, are
+        done.
 
         :param study: The study
         :param storage: Its storage (the one the study was created with)
@@ -364,8 +336,7 @@ class ReinforceExperimentManager(ExperimentManager):
         while True:
             try:
                 optuna.storages.fail_stale_trials(study)  # dead workers' trials: FAIL, and a retry is enqueued
-                # This worker's trials that Optuna marked FAIL when the database went away, and the retries of
-                # workers that died before they could queue theirs
+                # Queue retries of this worker's trials failed by a lost database, and of dead workers' orphans
                 storage.retry_failed_trials(study, self._worker_name(), orphaned_after=tolerance.grace_period)
                 trials = study.get_trials(deepcopy=False)
                 lost_since = None
@@ -384,23 +355,18 @@ class ReinforceExperimentManager(ExperimentManager):
                     time.sleep(min(tolerance.heartbeat_interval, 5))  # the last trials run (or are retried) elsewhere
                     continue
             try:
-                # A trial started beyond the total by a race between workers is recorded FAIL as "surplus" and not run;
-                # so is a retry queued twice (two workers adopting one orphan), which may still wait when the study is full
+                # A trial beyond the total (a race) or a retry queued twice is recorded FAIL as "surplus", unrun
                 study.optimize(self.objective, n_trials=1, gc_after_trial=True, catch=(SurplusTrial,))
                 done_here += 1
             except Exception as error:
                 if not caused_by_database(error):
                     raise
-                # The trial is left RUNNING without heartbeats (failed and retried after the grace period), or
-                # Optuna marked it FAIL on the way out: this worker queues its retry once the database is back.
+                # The trial stays RUNNING (retried after the grace period) or Optuna failed it (retried here later)
                 lost_since = self._wait_for_database(error, lost_since)
 
     @staticmethod
     def _worker_name() -> str:
-        """
-        This worker, as recorded in each trial's ``worker`` attribute: ``host:token:pid``. The random token, drawn
-        once per process, tells apart workers that share a host name and a PID (containers on the host's network).
-        """
+        """This worker as ``host:token:pid``; the per-process random token separates workers sharing host name and PID."""
         return f"{socket.gethostname()}:{_PROCESS_TOKEN}:{os.getpid()}"
 
     def _wait_for_database(self, error: BaseException, lost_since: float | None) -> float:

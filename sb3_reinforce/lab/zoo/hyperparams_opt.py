@@ -1,20 +1,9 @@
 """
-Optuna search space of REINFORCE, for rl-baselines3-zoo's ``--optimize`` and for ``benchmarks/tune.py``.
-
-- :func:`suggest_reinforce_params` asks the trial for every searched value (the raw values Optuna stores).
-- :func:`zoo_entry` turns those raw values into an entry of a zoo hyperparameter file (plain YAML values:
-  ``lin_<x>`` schedules, ``policy_kwargs`` as a Python string), which is what ``--trial-id`` loading
-  (``convert_reinforce_params``) and a study's output config use.
-- ``sample_reinforce_params`` is the zoo's sampler signature ``(trial, n_actions, n_envs, additional_args)``
-  and returns constructor arguments of :class:`~sb3_reinforce.REINFORCE` (the same entry, parsed as the zoo
-  parses a file). The number of environments and observation normalization are searched too: they are
-  applied by :class:`sb3_reinforce.lab.zoo.exp_manager.ReinforceExperimentManager` before the trial's environments
-  are built (observation normalization only where the config has no ``normalize`` of its own).
-
-Every lever keeps the update Monte-Carlo policy gradient (one step per batch of whole episodes): batch size,
-environments, observation normalization, learning-rate schedule, discount, network, entropy bonus, clipping,
-return standardization and the baseline (none, a learned ``V(s)`` fitted by ``n_value_steps`` steps of its
-own, or the leave-one-out mean).
+Optuna search space of REINFORCE, for rl-baselines3-zoo's ``--optimize`` and ``benchmarks/tune.py``:
+:func:`suggest_reinforce_params` asks the trial for the raw values, :func:`zoo_entry` turns them into a zoo yml entry
+(``--trial-id`` loading, a study's output config), and :func:`sample_reinforce_params` is the zoo's sampler. ``n_envs``
+and observation normalization are applied by :class:`~sb3_reinforce.lab.zoo.exp_manager.ReinforceExperimentManager`
+before the environments are built.
 """
 
 from typing import Any
@@ -56,8 +45,7 @@ N_ENVS_CHOICES = (1, 2, 4, 8)
 BASELINE_CHOICES = ("none", "value", "loo")
 #: Value-regression steps per batch searched with ``baseline="value"`` (0: one joint step with the policy).
 N_VALUE_STEPS_CHOICES = (0, 5, 20, 80)
-#: The zoo's ``normalize`` value of a trial that normalizes observations: ``VecNormalize`` of the observations
-#: only (the policy-gradient weights are standardized returns, ``normalize_returns``, or raw ones).
+#: The zoo's ``normalize`` value of a trial that normalizes observations (not rewards).
 NORMALIZE_OBSERVATIONS_KWARGS: dict[str, bool] = {"norm_obs": True, "norm_reward": False}
 NORMALIZE_OBSERVATIONS = str(NORMALIZE_OBSERVATIONS_KWARGS)
 
@@ -74,8 +62,7 @@ def suggest_n_envs(trial: optuna.Trial) -> int:
 
 def suggest_normalize_observations(trial: optuna.Trial) -> bool:
     """
-    Whether the trial normalizes observations (``VecNormalize``, observations only; asking again returns the
-    same value).
+    Whether the trial normalizes observations with ``VecNormalize`` (asking again returns the same value).
 
     :param trial: The Optuna trial
     :return: The sampled value
@@ -85,14 +72,12 @@ def suggest_normalize_observations(trial: optuna.Trial) -> bool:
 
 def suggest_reinforce_params(trial: optuna.Trial, search_normalization: bool = True) -> dict[str, Any]:
     """
-    Ask the trial for every searched value. A leave-one-out baseline needs two episodes per batch: a trial
-    that samples it with ``n_envs * n_episodes == 1`` is pruned.
+    Ask the trial for every searched value.
 
     :param trial: The Optuna trial
-    :param search_normalization: Whether to ask for ``normalize_observations`` (not where the config sets the
-        zoo's ``normalize`` itself, which then stands for every trial)
+    :param search_normalization: Whether to ask for ``normalize_observations`` (not where the config sets ``normalize``)
     :return: The raw values, as ``trial.params`` stores them
-    :raises optuna.TrialPruned: for a leave-one-out baseline with one episode per batch
+    :raises optuna.TrialPruned: for a leave-one-out baseline with one episode per batch (``n_envs * n_episodes == 1``)
     """
     suggest_n_envs(trial)
     if search_normalization:
@@ -122,10 +107,8 @@ def zoo_entry(sampled_params: dict[str, Any]) -> dict[str, Any]:
     """
     The zoo hyperparameters of a trial, as they would be written in a zoo yml file.
 
-    :param sampled_params: A trial's ``params`` (see :func:`suggest_reinforce_params`); ``lr_schedule``,
-        ``n_value_steps`` and ``value_learning_rate`` may be missing (trials of older studies: constant, joint step)
-    :return: Hyperparameters as in a zoo config (``n_envs`` included when it was sampled, ``normalize`` when
-        observation normalization was sampled and is on)
+    :param sampled_params: A trial's ``params`` (older studies lack ``lr_schedule`` and the value-network keys)
+    :return: Hyperparameters as in a zoo config (with ``n_envs`` and ``normalize`` where sampled)
     """
     params = dict(sampled_params)
     learning_rate = float(params.pop("learning_rate"))
@@ -159,8 +142,7 @@ def zoo_entry(sampled_params: dict[str, Any]) -> dict[str, Any]:
 
 def parse_zoo_entry(hyperparams: dict[str, Any]) -> dict[str, Any]:
     """
-    Parse zoo hyperparameters as rl_zoo3 parses a file: ``policy_kwargs`` strings evaluated with ``nn`` and
-    ``th`` in scope, ``lin_<x>`` and numeric learning rates turned into schedules.
+    Parse zoo hyperparameters as rl_zoo3 parses a file (``policy_kwargs`` evaluated, learning-rate schedules built).
 
     :param hyperparams: Zoo hyperparameters (not modified)
     :return: A new dict, ready for the constructor (with the zoo keys it had, such as ``n_envs``)
@@ -175,8 +157,7 @@ def parse_zoo_entry(hyperparams: dict[str, Any]) -> dict[str, Any]:
 
 def convert_reinforce_params(sampled_params: dict[str, Any]) -> dict[str, Any]:
     """
-    Convert the values Optuna stored for a trial into zoo hyperparameters (the zoo's ``--trial-id`` loading,
-    which then parses them as it parses a file).
+    Convert a trial's stored values into zoo hyperparameters (the zoo's ``--trial-id`` loading).
 
     :param sampled_params: A trial's ``params``
     :return: :func:`zoo_entry` of them
@@ -192,11 +173,9 @@ def sample_reinforce_params(
 
     :param trial: The Optuna trial
     :param n_actions: Size of the action vector (unused)
-    :param n_envs: Number of environments the trial's training env has; must be the trial's ``n_envs``
-        sample, which :class:`~sb3_reinforce.lab.zoo.exp_manager.ReinforceExperimentManager` applies
+    :param n_envs: Number of environments of the trial's training env; must equal the trial's ``n_envs`` sample
     :param additional_args: The zoo's extra arguments (unused)
-    :return: Keyword arguments for :class:`~sb3_reinforce.REINFORCE` (without ``n_envs`` and ``normalize``,
-        which set the env: the experiment manager suggests and applies ``normalize_observations`` itself)
+    :return: Keyword arguments for :class:`~sb3_reinforce.REINFORCE` (without ``n_envs`` and ``normalize``)
     """
     sampled_n_envs = suggest_n_envs(trial)
     if sampled_n_envs != n_envs:

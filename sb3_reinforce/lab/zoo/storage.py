@@ -1,22 +1,12 @@
 """
-Optuna storages for studies shared by several workers (``--storage postgresql://...``, or any other database
-URL SQLAlchemy knows), set up to survive the faults of a real cluster with Optuna's own machinery.
+Optuna storages for studies shared by several workers (``--storage postgresql://...``, or any SQLAlchemy URL), made to
+survive a cluster's faults with Optuna's own machinery:
 
-- **A killed worker loses nothing.** Optuna's heartbeats (``RDBStorage(heartbeat_interval=..., grace_period=...)``)
-  let the next worker that calls :func:`optuna.storages.fail_stale_trials` fail a trial whose worker went silent,
-  and :class:`optuna.storages.RetryHeartbeatStaleTrialCallback` queues a copy of it (same hyperparameters, at
-  most ``max_retry`` times). A running trial that never wrote a heartbeat (its worker died, or lost the database,
-  first) is failed too once this process has seen it so for the grace period. A trial Optuna marks ``FAIL``
-  because the database went away is retried by its own worker, or by any worker that has seen it owed a retry
-  for the grace period (its worker died first): :meth:`FaultTolerantStorage.retry_failed_trials`.
-- **The total is exact** (``--max-total-trials``): a failed trial owed a retry keeps its slot
-  (:func:`held_slots`), so a new trial cannot take it before the retry runs, and a trial started beyond the
-  total, or a second retry of the same trial, is recorded ``FAIL`` as "surplus" and not run (:func:`surplus_reason`).
-- **A failure of the trial's own is not retried**: a trial whose ``error`` or ``surplus`` user attribute is set.
-- **A dropped connection is survived.** Connections are checked before use (SQLAlchemy's ``pool_pre_ping``),
-  so a worker reconnects after the server restarts; a heartbeat that cannot be written meanwhile is skipped.
-- **Bad input is one clear line**: an invalid URL, a missing driver (naming the extra to install), a server
-  that cannot be reached or refuses the credentials.
+- A killed worker loses nothing: heartbeats fail its trial and :class:`optuna.storages.RetryHeartbeatStaleTrialCallback`
+  queues a copy (at most ``max_retry`` times), see :meth:`FaultTolerantStorage.retry_failed_trials`.
+- ``--max-total-trials`` is exact: a trial owed a retry keeps its slot (:func:`held_slots`); extra trials are recorded
+  ``FAIL`` as surplus (:func:`surplus_reason`). A trial's own failure (``error``, ``surplus``) is not retried.
+- Dropped connections are survived (``pool_pre_ping``); bad input (URL, driver, server, login) is one clear line.
 """
 
 import copy
@@ -31,9 +21,7 @@ import sqlalchemy.exc
 import sqlalchemy.orm
 from optuna.storages import RDBStorage, RetryHeartbeatStaleTrialCallback
 
-# Private: Optuna's trials and heartbeats tables. Optuna's stale-trial check skips a running trial without a
-# heartbeat row, so a worker that dies (or loses the database) before its heartbeat thread writes once would
-# leave its trial running forever and the study short of its total. pyproject.toml bounds optuna (<5.1).
+# Private (optuna below 5.1, bounded in pyproject.toml): Optuna's stale check skips trials without a heartbeat row
 from optuna.storages._rdb.models import TrialHeartbeatModel, TrialModel
 from optuna.trial import FrozenTrial, TrialState
 
@@ -55,9 +43,8 @@ __all__ = [
     "surplus_reason",
 ]
 
-#: Errors of a database that went away (server restart, network): a worker waits and reconnects. Optuna reports
-#: a failed commit as ``StorageInternalError``; a trial failed by another worker meanwhile (its heartbeats
-#: could not be written for longer than the grace period) as ``UpdateFinishedTrialError``.
+#: Errors of a database that went away: a worker waits and reconnects. Optuna raises ``StorageInternalError`` on a
+#: failed commit and ``UpdateFinishedTrialError`` for a trial failed meanwhile by another worker.
 DATABASE_ERRORS = (
     sqlalchemy.exc.OperationalError,
     sqlalchemy.exc.InterfaceError,
@@ -123,10 +110,7 @@ def redact(url: str) -> str:
 
 
 def caused_by_database(error: BaseException) -> bool:
-    """
-    Whether ``error`` comes from a database that went away: one of ``DATABASE_ERRORS``, or any error raised
-    while handling one (Optuna's own error handling can fail in turn when the database is gone).
-    """
+    """Whether ``error`` is one of ``DATABASE_ERRORS``, or was raised while handling one (the database went away)."""
     seen: set[int] = set()
     current: BaseException | None = error
     while current is not None and id(current) not in seen:
@@ -175,19 +159,15 @@ def _retried_numbers(trials: Iterable[FrozenTrial]) -> set[int]:
 
 def owes_retry(trial: FrozenTrial, trials: Sequence[FrozenTrial], max_retry: int) -> bool:
     """
-    Whether ``trial`` failed by no error of its own (its worker died or lost the database; not a surplus trial,
-    no ``error`` user attribute), may still be retried (fewer than ``max_retry`` retries of its original so far)
-    and no trial of ``trials`` retries it yet (directly, or through a retry of its retry). Only the retries of this
-    very trial count: a duplicate retry of the trial it retries (refused as surplus) does not.
+    Whether ``trial`` failed by no error of its own, has fewer than ``max_retry`` retries, and no trial of ``trials``
+    retries it yet (only retries of this very trial count).
     """
     return _owes(trial, _retried_numbers(trials), max_retry)
 
 
 def held_slots(trials: Sequence[FrozenTrial], max_retry: int, exclude_original: int | None = None) -> int:
     """
-    How many of a study's ``--max-total-trials`` slots ``trials`` hold: one per original trial with a member of
-    its chain of retries finished, running or waiting, or failed and owed a retry (its slot is kept for the retry,
-    so that no new trial takes it first and the retry finds the study full).
+    Slots of ``--max-total-trials`` that ``trials`` hold: one per retry chain done, running, waiting or owed a retry.
 
     :param trials: The trials to count (all the study's, or those numbered before a trial that just started)
     :param max_retry: How many times a failed trial is retried
@@ -201,11 +181,8 @@ def held_slots(trials: Sequence[FrozenTrial], max_retry: int, exclude_original: 
 
 def surplus_reason(number: int, trials: Sequence[FrozenTrial], total: int, max_retry: int) -> str | None:
     """
-    Why trial ``number``, just started, must not run in a study of ``total`` trials, or None if it may. Trial
-    numbers are given out by the database in order, so the trials numbered before it decide (whatever the
-    timing of the workers): it is surplus if an earlier trial is a retry of the same failed trial (two workers
-    queued one at the same moment) or an earlier trial of its chain is still running, queued or finished, or if
-    the earlier trials hold every slot (:func:`held_slots`; a retry takes the slot its failed trial kept for it).
+    Why trial ``number``, just started, must not run in a study of ``total`` trials, or None. The trials numbered before
+    it decide: an earlier retry of the same trial, or every slot held (:func:`held_slots`).
 
     :param number: The number of the trial
     :param trials: The study's trials, this one among them
@@ -225,12 +202,7 @@ def surplus_reason(number: int, trials: Sequence[FrozenTrial], total: int, max_r
 
 
 class _RetryCallback(RetryHeartbeatStaleTrialCallback):
-    """
-    Optuna's retry of a failed trial (a WAITING copy with the same hyperparameters, at most ``max_retry`` times),
-    except for a trial that failed by its own error or never ran (``error``, ``surplus``): one marked so whose
-    worker then lost the database before it could record the FAIL is found stale later. The failed trial is
-    copied first (Optuna extends its retry history in place).
-    """
+    """Optuna's retry, skipping trials with ``error``/``surplus``; copies the trial (Optuna extends its history in place)."""
 
     def __call__(self, study: optuna.Study, trial: FrozenTrial) -> None:
         if not _ended_by_itself(trial):
@@ -256,8 +228,7 @@ class _Sightings:
 
 class FaultTolerantStorage(RDBStorage):
     """
-    Optuna's ``RDBStorage`` with heartbeats, retries of failed trials and reconnection (see the module docstring),
-    whose heartbeats skip a beat while the database is unreachable instead of ending their thread.
+    Optuna's ``RDBStorage`` with heartbeats, retries and reconnection; heartbeats skip while the database is away.
 
     :param url: An SQLAlchemy database URL
     :param fault_tolerance: Heartbeat and retry settings
@@ -299,14 +270,11 @@ class FaultTolerantStorage(RDBStorage):
 
     def retry_failed_trials(self, study: optuna.Study, worker: str, orphaned_after: float | None = None) -> None:
         """
-        Queue the retry of every failed trial of ``worker`` owed one (:func:`owes_retry`), with the storage's retry
-        callback: a trial Optuna marked FAIL because the database went away. With ``orphaned_after``, also the
-        retries owed to any worker that this process has seen owed for longer than that (seconds): their worker
-        died before it could queue them.
+        Queue the retries owed to ``worker``'s failed trials (:func:`owes_retry`), e.g. those failed by a lost database.
 
         :param study: The study
         :param worker: The ``worker`` user attribute of the trials to retry
-        :param orphaned_after: Seconds after which anyone's owed retry is queued (None: never)
+        :param orphaned_after: Also queue anyone's retry seen owed for longer than this, in seconds (None: never)
         """
         callback = self.get_heartbeat_stale_trial_callback()
         assert callback is not None
@@ -357,11 +325,10 @@ def open_database_storage(url: str, fault_tolerance: FaultTolerance) -> FaultTol
             return FaultTolerantStorage(url, fault_tolerance)
         except (*DATABASE_ERRORS, sqlalchemy.exc.DatabaseError) as error:
             if _created_by_another_worker(error):
-                # Workers creating the tables of an empty database at the same moment collide: the first one
-                # wins, the others find the tables when they try again.
+                # Workers creating the tables at the same moment collide: the others find them on the next try
                 time.sleep(1.0 + attempt)
                 continue
-            # At start-up, an unreachable server or refused credentials are a usage error, not a pause
+            # At start-up, an unreachable server or refused credentials are a usage error
             raise StorageError(f"--storage {shown}: cannot use the database: {_first_line(error)}") from None
     raise StorageError(f"--storage {shown}: could not create the study's tables (other workers kept colliding)")
 

@@ -1,14 +1,6 @@
 """
-The trained REINFORCE agents this package ships, in rl-trained-agents' layout, and how ``-f`` finds them.
-
-The agents live in the repository's ``rl-trained-agents/`` folder (``reinforce/<env>_1/``: the model
-``<env>.zip``, its ``<env>/config.yml``, ``args.yml`` and, where the zoo entry normalizes, ``vecnormalize.pkl``).
-A wheel ships them inside the package, as ``sb3_reinforce/lab/zoo/trained_agents/`` (``pyproject.toml`` maps that
-package folder to ``rl-trained-agents/``).
-
-rl_zoo3's ``enjoy``, ``record_video`` and ``record_training`` read ``-f rl-trained-agents`` by default. For
-``--algo reinforce``, :func:`agents_folder` turns that name into the folder that holds the agent: the current
-directory's ``rl-trained-agents/`` when it has one for the env (a clone's root), else the shipped one.
+The shipped REINFORCE agents (``rl-trained-agents/reinforce/<env>_1/`` in a checkout,
+``sb3_reinforce/lab/zoo/trained_agents/`` installed) and how ``-f rl-trained-agents`` finds them.
 """
 
 from pathlib import Path
@@ -25,7 +17,7 @@ def trained_agents_dirs() -> list[Path]:
     """
     The folders searched for the shipped agents, first match wins.
 
-    :return: The installed package's ``trained_agents/`` folder, then the source checkout's ``rl-trained-agents/``
+    :return: The installed ``trained_agents/`` folder, then the checkout's ``rl-trained-agents/``
     """
     return shipped_dirs("trained_agents", TRAINED_AGENTS)
 
@@ -48,13 +40,12 @@ def shipped_envs(algo: str = "reinforce") -> list[str]:
 
 def agents_folder(folder: str, algo: str, env_id: str) -> str | None:
     """
-    The folder the zoo should read for ``-f folder`` (see the module's docstring).
+    The folder the zoo should read for ``-f folder``: the current directory's agent first, else the shipped one.
 
     :param folder: The ``-f``/``--folder`` argument
     :param algo: The ``--algo`` argument
     :param env_id: The ``--env`` argument
-    :return: ``folder`` itself where it is not ``rl-trained-agents`` or holds the agent, else the shipped folder
-        holding it, or None if no shipped folder does
+    :return: ``folder`` if not ``rl-trained-agents`` or it holds the agent, else the shipped one holding it, or None
     """
     if folder.rstrip("/") != TRAINED_AGENTS or _has_agent(Path(folder), algo, env_id):
         return folder
