@@ -6,6 +6,8 @@ import torch as th
 # Two cores in CI: keep torch from oversubscribing them when pytest-xdist runs workers side by side.
 th.set_num_threads(1)
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+# MuJoCo renders (record-video of a shipped MuJoCo agent) offscreen with EGL: CI has no display for its default GLFW
+os.environ.setdefault("MUJOCO_GL", "egl")
 
 
 @pytest.fixture(autouse=True)
