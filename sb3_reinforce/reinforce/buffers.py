@@ -37,7 +37,7 @@ class RolloutLimitError(RuntimeError):
 
 
 def _storage_dtype(space: spaces.Space) -> np.dtype:
-    # Keep images as uint8 (4x less memory than SB3's float32 RolloutBuffer); float64 becomes float32.
+    # Images stay uint8 (SB3's RolloutBuffer stores float32); float64 becomes float32.
     dtype = np.dtype(space.dtype if space.dtype is not None else np.float32)
     return np.dtype(np.float32) if dtype == np.float64 else dtype
 
@@ -46,15 +46,10 @@ class EpisodeRolloutBuffer(BaseBuffer):
     """
     Rollout buffer for REINFORCE that holds whole episodes.
 
-    Every environment writes into its own column of a time-major array ``(capacity, n_envs, ...)``. A batch is
-    full once it holds at least ``n_episodes`` finished episodes and ``min_steps`` of their steps (episodes that
-    end at the same step are all kept). :meth:`compute_returns` then takes every finished episode out as the
-    training batch and computes its discounted returns; it never cuts an episode. Episodes still running in
-    other environments (``n_envs > 1``) move to the front of their column and go on in the next batch: no
-    transition is lost or used twice. The last batch is readable under the names of SB3's ``RolloutBuffer``
-    (``observations``, ``actions``, ``rewards``, ``returns``, ``episode_starts``; shapes in the docs, "Reading the
-    last batch from a callback"). The capacity doubles when a column is full and is kept from batch to batch;
-    ``max_steps`` caps the transitions stored, so an environment that never ends raises :class:`RolloutLimitError`.
+    Full once it holds at least ``n_episodes`` finished episodes and ``min_steps`` of their steps: :meth:`compute_returns` then
+    takes them all out as the batch; episodes still running go on in the next one. The last batch is readable under
+    SB3's ``RolloutBuffer`` names (``observations``, ``actions``, ``rewards``, ``returns``, ``episode_starts``).
+    The capacity doubles as needed; past ``max_steps`` transitions, :class:`RolloutLimitError` is raised.
 
     :param buffer_size: Initial capacity, in steps per environment (grows as needed)
     :param observation_space: Observation space
@@ -92,7 +87,6 @@ class EpisodeRolloutBuffer(BaseBuffer):
         self._env_indices = np.arange(n_envs)
         self.reset()
 
-    # --- storage layout -------------------------------------------------------------------------
     def _obs_specs(self) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
         return {"observations": (tuple(self.obs_shape), _storage_dtype(self.observation_space))}
 
@@ -121,14 +115,13 @@ class EpisodeRolloutBuffer(BaseBuffer):
         self.env_steps = np.zeros(self.n_envs, dtype=np.int64)
         self.finished_steps = np.zeros(self.n_envs, dtype=np.int64)
         self.n_finished_episodes = 0
-        # The last batch (none yet): one empty array per field, so that its attributes can be read before the first
+        # The last batch: empty arrays until the first, so that its attributes can always be read
         self._batch = {name: np.zeros((0, *shape), dtype=dtype) for name, (shape, dtype) in self._field_specs().items()}
         self.returns = np.zeros(0, dtype=np.float64)
         self.episode_lengths = np.zeros(0, dtype=np.int64)
         self.batch_size = 0
         super().reset()
 
-    # --- the last batch, under the names of SB3's RolloutBuffer (see the class docstring) -------
     @property
     def observations(self) -> Any:
         """The last batch's observations, ``(batch_size, *obs_shape)``."""
@@ -205,7 +198,6 @@ class EpisodeRolloutBuffer(BaseBuffer):
         """
         if self._longest >= self.capacity:
             self._grow()
-        # Row-major (capacity * n_envs) views: one flat index per env is cheaper than a (row, column) pair.
         flat = self._flat
         index = self._next_index
         for name, values in self._split_obs(obs).items():
@@ -213,7 +205,6 @@ class EpisodeRolloutBuffer(BaseBuffer):
         flat["actions"][index] = np.reshape(action, (self.n_envs, self.action_dim))
         flat["rewards"][index] = reward
         flat["episode_ends"][index] = episode_end
-        # Every column grew by one row (in place: cheaper than the property's full update)
         self._env_steps += 1
         self._next_index += self.n_envs
         self._longest += 1
@@ -224,9 +215,8 @@ class EpisodeRolloutBuffer(BaseBuffer):
 
     def compute_returns(self) -> None:
         """
-        Take the finished episodes out as the training batch and compute their discounted returns
-        ``G_t = sum_k gamma^k r_{t+k}``. Running episodes move to the front of their columns and go on
-        in the next batch.
+        Take the finished episodes out as the batch and compute their returns ``G_t = sum_k gamma^k r_{t+k}``.
+        Running episodes move to the front of their columns for the next batch.
         """
         envs = np.flatnonzero(self.finished_steps)
         if len(envs) == 0:
@@ -282,10 +272,7 @@ class EpisodeRolloutBuffer(BaseBuffer):
 
 
 class DictEpisodeRolloutBuffer(EpisodeRolloutBuffer):
-    """
-    :class:`EpisodeRolloutBuffer` for ``Dict`` observation spaces: one storage array per observation key,
-    otherwise identical (same parameters, same handling of running episodes and of memory).
-    """
+    """:class:`EpisodeRolloutBuffer` for ``Dict`` observation spaces: one storage array per observation key."""
 
     observation_space: spaces.Dict
     obs_shape: dict[str, tuple[int, ...]]  # type: ignore[assignment]

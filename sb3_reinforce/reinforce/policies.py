@@ -1,10 +1,4 @@
-"""
-Policies for REINFORCE: SB3's ``ActorCriticPolicy`` whose value head is optional.
-
-REINFORCE without a baseline needs only the actor; building and running a critic it never uses would cost
-memory and compute at every step. With ``value_head=False`` no value network exists and the policy's value
-estimate is the constant baseline ``b(s) = 0`` that plain REINFORCE uses.
-"""
+"""Policies for REINFORCE: SB3's ``ActorCriticPolicy`` with an optional value head (without: ``V(s) = b(s) = 0``)."""
 
 import math
 from typing import Any
@@ -25,8 +19,8 @@ __all__ = ["CnnPolicy", "MlpPolicy", "MultiInputPolicy", "ReinforceCnnPolicy", "
 
 def xavier_init_(module: nn.Module) -> None:
     """
-    Glorot-uniform initialization of every weight *and bias*, as the seed's TF1 ``xavier_initializer``
-    (a bias of ``n`` units is initialized as an ``(n, 1)`` matrix: ``U(-sqrt(6 / (n + 1)), sqrt(6 / (n + 1)))``).
+    Glorot-uniform initialization of every weight *and bias*, as TF1's ``xavier_initializer`` (a bias of ``n``
+    units as an ``(n, 1)`` matrix: ``U(-sqrt(6 / (n + 1)), sqrt(6 / (n + 1)))``).
     """
     for layer in module.modules():
         if isinstance(layer, (nn.Linear, nn.Conv2d)):
@@ -37,10 +31,7 @@ def xavier_init_(module: nn.Module) -> None:
 
 
 def normal_init_(module: nn.Module, std: float, bias: float) -> None:
-    """
-    Weights drawn from ``N(0, std**2)`` and every bias set to ``bias``, as the seed's ``tf.layers`` scripts
-    (``policy_gradient_layers.py``: ``random_normal_initializer(stddev=0.3)``, ``constant_initializer(0.1)``).
-    """
+    """Weights drawn from ``N(0, std**2)``, every bias set to ``bias`` (as TF's ``random_normal_initializer``)."""
     for layer in module.modules():
         if isinstance(layer, (nn.Linear, nn.Conv2d)):
             nn.init.normal_(layer.weight, mean=0.0, std=std)
@@ -52,30 +43,21 @@ class ReinforcePolicy(ActorCriticPolicy):
     """
     Policy class for REINFORCE (actor, plus a critic used as baseline when ``value_head=True``).
 
-    Takes every argument of :class:`stable_baselines3.common.policies.ActorCriticPolicy`, plus:
-
     :param observation_space: Observation space
     :param action_space: Action space
     :param lr_schedule: Learning rate schedule (could be constant)
-    :param net_arch: The specification of the policy and value networks, as SB3's (SB3's old format
-        ``[dict(pi=..., vf=...)]`` is converted as SB3 converts it, with its warning). Without a value head, a
-        list gives the actor's hidden layers and ``vf`` of a dict is ignored. Default: 64-64 (none for ``NatureCNN``).
-    :param value_head: Whether to build a value network ``V(s)`` (REINFORCE with baseline). Set by the
-        algorithm from its ``baseline`` argument.
-    :param xavier_init: Initialize all weights and biases Glorot-uniform, as the seed did, instead of
-        SB3's orthogonal initialization (``ortho_init`` is then ignored).
-    :param normal_init: ``(std, bias)``: initialize every weight from ``N(0, std**2)`` and every bias to
-        ``bias``, as the seed's CarRacing script did (``(0.3, 0.1)``), instead of SB3's orthogonal
-        initialization (``ortho_init`` is then ignored). None (default): not used. Not with ``xavier_init``.
+    :param net_arch: The policy and value networks, as SB3's (default: 64-64, none for ``NatureCNN``). Without a value
+        head, a list gives the actor's hidden layers and a dict's ``vf`` is ignored.
+    :param value_head: Whether to build a value network ``V(s)``; set by the algorithm from its ``baseline``.
+    :param xavier_init: Initialize all weights and biases Glorot-uniform instead of orthogonally (ignores ``ortho_init``)
+    :param normal_init: ``(std, bias)``: every weight from ``N(0, std**2)``, every bias ``bias`` (e.g. ``(0.3, 0.1)``),
+        instead of orthogonally (ignores ``ortho_init``). None (default): not used. Not with ``xavier_init``.
     :param fast_rollout: Sample the rollout's actions with :class:`~sb3_reinforce.reinforce.sampling.FastSampler`, and
-        evaluate ``log pi(a|s)`` and the entropy in :meth:`evaluate_actions` with their closed forms (categorical
-        and diagonal Gaussian policies): the same distributions and values as SB3's, without building
-        ``torch.distributions`` objects. ``False`` keeps SB3's path for both; gSDE always does.
-    :param kwargs: Passed on to ``ActorCriticPolicy`` (``activation_fn``, ``ortho_init``, ``use_sde``,
-        ``log_std_init``, ``features_extractor_class``, ``optimizer_class``, ``optimizer_kwargs``, ...).
-        With the default ``optimizer_class`` (Adam), ``optimizer_kwargs`` defaults to SB3's ``eps=1e-5`` plus
-        ``foreach=True`` (torch's multi-tensor implementation of the same update, which torch only picks by
-        itself on GPUs); a ``foreach`` given in ``optimizer_kwargs`` is kept.
+        compute ``log pi(a|s)`` and the entropy in :meth:`evaluate_actions` in closed form (same values as SB3's).
+        ``False`` keeps SB3's path; gSDE always does.
+    :param kwargs: Passed on to ``ActorCriticPolicy`` (``activation_fn``, ``ortho_init``, ``use_sde``, ``optimizer_kwargs``,
+        ...). With Adam (the default), ``optimizer_kwargs`` (default: SB3's ``eps=1e-5``) gets ``foreach=True`` unless
+        it sets ``foreach`` (torch's multi-tensor Adam, which torch picks by itself only on GPUs).
     """
 
     def __init__(
@@ -114,9 +96,7 @@ class ReinforcePolicy(ActorCriticPolicy):
 
     def _build_mlp_extractor(self) -> None:
         if not self.value_head:
-            # The actor's layers only. SB3's __init__ has already filled in its default ``net_arch`` and converted
-            # the old ``[dict(pi=..., vf=...)]`` format (with its warning): a list is the actor's layers, and ``vf``
-            # of a dict is dropped.
+            # Actor only: SB3's __init__ already set its default ``net_arch`` and converted the old ``[dict(pi=, vf=)]``.
             net_arch = self.net_arch
             pi_arch = net_arch.get("pi", []) if isinstance(net_arch, dict) else list(net_arch)
             self.net_arch = dict(pi=pi_arch, vf=[])
@@ -146,8 +126,8 @@ class ReinforcePolicy(ActorCriticPolicy):
     def fast_sampler(self) -> FastSampler | None:
         """
         A :class:`~sb3_reinforce.reinforce.sampling.FastSampler` for the current parameters, or None where the rollout
-        must use SB3's ``get_distribution(obs).get_actions()``: ``fast_rollout=False``, gSDE, another
-        distribution, or a subclass that changes how the distribution is built.
+        must use SB3's ``get_distribution(obs).get_actions()`` (``fast_rollout=False``, gSDE, other distributions,
+        subclasses that build their own).
         """
         if not self._has_standard_distribution() or not isinstance(self.action_dist, SUPPORTED_DISTRIBUTIONS):
             return None
@@ -155,9 +135,7 @@ class ReinforcePolicy(ActorCriticPolicy):
 
     def extract_actor_features(self, obs: PyTorchObs) -> th.Tensor:
         """
-        The actor's features: the observation preprocessed and passed through ``pi_features_extractor`` only, as
-        SB3's ``get_distribution`` computes them (``extract_features`` returns a ``(pi, vf)`` pair, and runs the
-        critic's extractor too, when the features extractor is not shared).
+        The actor's features (``pi_features_extractor`` only), as SB3's ``get_distribution`` computes them.
 
         :param obs: Observation
         :return: The actor's features
@@ -173,10 +151,7 @@ class ReinforcePolicy(ActorCriticPolicy):
         return self.fast_rollout and not self.use_sde and not builds_own_distribution
 
     def _log_prob_and_entropy(self, latent_pi: th.Tensor, actions: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
-        """
-        ``log pi(a|s)`` and the entropy ``H(pi(.|s))`` from the actor's latent, as SB3's distributions compute
-        them, in closed form for categorical and diagonal Gaussian policies (else through SB3's distribution).
-        """
+        """``log pi(a|s)`` and ``H(pi(.|s))`` from the actor's latent: closed forms (categorical, Gaussian) or SB3's."""
         params = self.action_net(latent_pi)
         if isinstance(self.action_dist, CategoricalDistribution):
             # log pi(a|s) = l_a - logsumexp(l),   H = -sum_i pi_i log pi_i   (logits l)

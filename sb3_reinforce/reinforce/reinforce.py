@@ -36,70 +36,43 @@ class REINFORCE(OnPolicyAlgorithm):
     Introduction: https://spinningup.openai.com/en/latest/spinningup/rl_intro3.html
 
     The policy plays whole episodes, then takes one gradient step on ``mean_t(-log pi(a_t|s_t) * A_t)``, where
-    ``A_t`` is the discounted reward-to-go ``G_t`` (standardized over the batch by default), or ``G_t - b_t``
-    with a baseline. A rollout always ends on episode boundaries (see
-    :class:`~sb3_reinforce.reinforce.buffers.EpisodeRolloutBuffer` for episodes still running in other
-    environments when the batch is full).
-
-    A baseline ``b_t`` that does not depend on the action ``a_t`` leaves the expected gradient unchanged, since
-    ``E[grad log pi(a|s) * b] = b * grad sum_a pi(a|s) = 0``, and reduces its variance. Two are offered: a
-    learned ``V(s_t)`` (``baseline="value"``, fitted on earlier batches only when it is read) and the critic-free
-    leave-one-out mean over the batch's other episodes (``baseline="loo"``). Truncated episodes (time limits) are
-    bootstrapped with ``gamma * V(s_T)`` when there is a value baseline, and are treated as terminal otherwise.
-
-    A non-finite loss or gradient raises a ``FloatingPointError`` before the optimizer steps, so the weights are
-    never changed by it (:class:`~sb3_reinforce.safeguards.CheckFinite` names the environment and step that
-    produced a NaN or an inf).
+    ``A_t`` is the discounted reward-to-go ``G_t`` (standardized over the batch by default), or ``G_t - b_t`` with a
+    baseline (see ``baseline``). Truncated episodes are bootstrapped with ``gamma * V(s_T)`` with a value baseline,
+    else treated as terminal. A non-finite loss or gradient raises ``FloatingPointError``, leaving the weights unchanged.
 
     :param policy: The policy model to use (MlpPolicy, CnnPolicy, MultiInputPolicy, or a class)
     :param env: The environment to learn from (if registered in Gym, can be str)
     :param learning_rate: The learning rate, it can be a function of the current progress remaining (from 1 to 0)
-    :param n_episodes: Number of whole episodes to collect per environment per gradient step (the seed used 1,
-        with one environment). As SB3's ``n_steps``, it counts per environment: a batch holds at least
-        ``n_episodes * n_envs`` finished episodes (several may end at the same step, so a batch can hold more).
-    :param min_steps: Minimum number of environment steps per gradient step, all environments together: episodes
-        are added to the batch until both ``n_episodes * n_envs`` episodes and ``min_steps`` steps are reached
+    :param n_episodes: Finished episodes per environment per gradient step (counted as SB3's ``n_steps``): a batch
+        holds at least ``n_episodes * n_envs`` episodes (more if several end at the same step)
+    :param min_steps: Minimum number of environment steps per batch as well, all environments together
     :param gamma: Discount factor, in [0, 1]
-    :param baseline: ``None`` for plain REINFORCE (no value network is built), ``"value"`` for a learned
-        state-value baseline ``V(s)`` regressed on the returns, or ``"loo"`` for the leave-one-out baseline: for
-        step ``t`` of an episode, the mean ``G_t`` of the batch's *other* episodes that lasted past step ``t``
-        (see :func:`~sb3_reinforce.reinforce.returns.leave_one_out_baseline`; needs ``n_episodes * n_envs >= 2``)
-    :param normalize_returns: Standardize the policy-gradient weights over the batch (returns without a
-        baseline, advantages with one). A batch of equal returns gives zero weights, never NaN.
+    :param baseline: ``None`` for plain REINFORCE (no value network is built), ``"value"`` for a learned ``V(s)``
+        regressed on the returns, or ``"loo"`` for the leave-one-out mean of the batch's other episodes
+        (:func:`~sb3_reinforce.reinforce.returns.leave_one_out_baseline`; needs ``n_episodes * n_envs >= 2``)
+    :param normalize_returns: Standardize the policy-gradient weights (returns, or advantages) over the batch;
+        equal returns give zero weights, never NaN
     :param ent_coef: Entropy coefficient for the loss calculation
-    :param vf_coef: Value function coefficient for the loss calculation (``baseline="value"`` with
-        ``n_value_steps=0`` only)
-    :param n_value_steps: Gradient steps that fit the value baseline to each batch's returns, after the policy's
-        one step, with an optimizer of their own (Spinning Up's VPG takes 80). 0 (default): the value head takes
-        one joint step with the policy on ``policy_loss + vf_coef * value_loss``, as A2C. ``baseline="value"``
-        only. With a shared features extractor (``CnnPolicy``'s default), the value steps train the value layers
-        only and the extractor learns from the policy loss.
-    :param value_learning_rate: Learning rate of the value steps (``n_value_steps > 0``), a number or a schedule
-        of the progress remaining; None (default): the policy's ``learning_rate``
-    :param max_grad_norm: The maximum value for the gradient clipping, or None (default) for no clipping: with
-        ``baseline="value"``, the critic's early gradient (an MSE on raw returns) dominates a global norm, and
-        clipping it at A2C/PPO's 0.5 starved the actor on CartPole (``benchmarks/grad_clip_ablation.py``)
-    :param use_sde: Whether to use generalized State Dependent Exploration (gSDE)
-        instead of action noise exploration (default: False)
-    :param sde_sample_freq: Sample a new noise matrix every n steps when using gSDE
-        Default: -1 (only sample at the beginning of the rollout)
-    :param max_rollout_steps: Most transitions the rollout buffer may hold (all environments together): an
-        environment that has not ended enough episodes by then raises ``RolloutLimitError`` instead of exhausting
-        memory
-    :param rollout_buffer_class: Rollout buffer class to use, an
-        :class:`~sb3_reinforce.reinforce.buffers.EpisodeRolloutBuffer` or a subclass (SB3's fixed-length
-        ``RolloutBuffer`` cannot hold whole episodes). If ``None``, it will be automatically selected.
+    :param vf_coef: Value function coefficient for the loss calculation (``baseline="value"``, ``n_value_steps=0``)
+    :param n_value_steps: Gradient steps fitting the value baseline to each batch's returns after the policy's step,
+        with an optimizer of their own (value layers only with a shared features extractor). 0 (default): one joint
+        step on ``policy_loss + vf_coef * value_loss``, as A2C. ``baseline="value"`` only.
+    :param value_learning_rate: Learning rate (number or schedule) of the value steps; None (default): ``learning_rate``
+    :param max_grad_norm: The maximum value for the gradient clipping, or None (default) for no clipping (with
+        ``baseline="value"``, the critic's early gradient dominates a global norm, and A2C/PPO's 0.5 starves the actor)
+    :param use_sde: Whether to use generalized State Dependent Exploration (gSDE) instead of action noise (default: False)
+    :param sde_sample_freq: Sample a new noise matrix every n steps with gSDE (-1, default: only at the rollout's start)
+    :param max_rollout_steps: Most transitions the rollout buffer may hold (all environments together): beyond,
+        ``RolloutLimitError`` is raised instead of exhausting memory
+    :param rollout_buffer_class: An :class:`~sb3_reinforce.reinforce.buffers.EpisodeRolloutBuffer` (sub)class (SB3's
+        fixed-length ``RolloutBuffer`` cannot hold whole episodes). If ``None``, it will be automatically selected.
     :param rollout_buffer_kwargs: Keyword arguments to pass to the rollout buffer on creation.
-    :param stats_window_size: Window size for the rollout logging, specifying the number of episodes to average
-        the reported success rate, mean episode length, and mean reward over
+    :param stats_window_size: Number of episodes the rollout logging averages success rate, episode length and reward over
     :param tensorboard_log: the log location for tensorboard (if None, no logging)
-    :param policy_kwargs: additional arguments to be passed to the policy on creation, see
-        :class:`~sb3_reinforce.reinforce.policies.ReinforcePolicy`
-    :param verbose: Verbosity level: 0 for no output, 1 for info messages (such as device or wrappers used), 2 for
-        debug messages
+    :param policy_kwargs: arguments passed to the policy, see :class:`~sb3_reinforce.reinforce.policies.ReinforcePolicy`
+    :param verbose: Verbosity level: 0 for no output, 1 for info messages (device, wrappers, ...), 2 for debug messages
     :param seed: Seed for the pseudo random generators
-    :param device: Device (cpu, cuda, ...) on which the code should be run.
-        Setting it to auto, the code will be run on the GPU if possible.
+    :param device: Device (cpu, cuda, ...) on which the code should be run; auto: the GPU if possible
     :param _init_setup_model: Whether or not to build the network at the creation of the instance
     """
 
@@ -252,8 +225,7 @@ class REINFORCE(OnPolicyAlgorithm):
         return result
 
     def _update_current_progress_remaining(self, num_timesteps: int, total_timesteps: int) -> None:
-        # The last batch finishes its episodes past total_timesteps: without the floor, a schedule would be read
-        # at a negative progress (a linear learning rate below 0, i.e. one step of gradient *ascent*).
+        # The last batch runs past total_timesteps: floor at 0, else a linear learning rate goes negative (ascent).
         super()._update_current_progress_remaining(num_timesteps, total_timesteps)
         self._current_progress_remaining = max(0.0, self._current_progress_remaining)
 
@@ -267,9 +239,7 @@ class REINFORCE(OnPolicyAlgorithm):
         """
         Play the current policy until the buffer holds a batch of whole episodes, then compute their returns.
 
-        Callbacks see the same local variables as with SB3's on-policy algorithms (``new_obs``, ``rewards``,
-        ``dones``, ``infos``, ...). Each transition is stored before ``callback.on_step()``, so stopping from
-        a callback loses no experience: ``learn(..., reset_num_timesteps=False)`` goes on from there.
+        A callback that stops training loses no transition: each is stored before ``callback.on_step()``.
 
         :param env: The training environment
         :param callback: Callback that will be called at each step (and at the beginning and end of the rollout)
@@ -315,8 +285,7 @@ class REINFORCE(OnPolicyAlgorithm):
             n_steps += 1
             self._update_info_buffer(infos, dones)
 
-            # Handle timeout by bootstrapping with value function (SB3 GH#633), when there is one: a truncated
-            # episode's return goes on as gamma * V(s_T). Without a value baseline it is treated as terminal.
+            # Handle timeout by bootstrapping with value function (SB3 GH#633): last reward += gamma * V(s_T)
             if self.baseline == "value" and dones.any():
                 rewards = rewards.astype(np.float64)
                 for idx in np.flatnonzero(dones):
@@ -330,7 +299,6 @@ class REINFORCE(OnPolicyAlgorithm):
             self._last_obs = new_obs
             self._last_episode_starts = dones
 
-            # Give access to local variables
             callback.update_locals(locals())
             if not callback.on_step():
                 return False
@@ -341,10 +309,7 @@ class REINFORCE(OnPolicyAlgorithm):
         return True
 
     def train(self) -> None:
-        """
-        One gradient step of the policy on the batch of whole episodes in the rollout buffer (and, with
-        ``n_value_steps``, the value baseline's steps after it).
-        """
+        """One gradient step of the policy on the batch of whole episodes (then the ``n_value_steps`` value steps)."""
         # Switch to train mode (this affects batch norm / dropout)
         self.policy.set_training_mode(True)
         self._update_learning_rate(self.policy.optimizer)
@@ -352,15 +317,15 @@ class REINFORCE(OnPolicyAlgorithm):
         batch = next(self.rollout_buffer.get(batch_size=None))
         actions = batch.actions
         if isinstance(self.action_space, spaces.Discrete):
-            # Convert discrete action from float to long
             actions = actions.long().flatten()
         values, log_prob, entropy = self.policy.evaluate_actions(batch.observations, actions)
         values = values.flatten()
         returns = batch.returns
 
-        # Policy gradient theorem, Monte-Carlo estimate (Williams, 1992), with a baseline b that ignores a_t:
+        # Policy gradient theorem, Monte-Carlo estimate (Williams, 1992), with a baseline b_t that ignores a_t:
         #   grad J = E[ sum_t grad log pi(a_t|s_t) * (G_t - b_t) ],   G_t = sum_k gamma^k r_{t+k}
-        # so the loss is  L_pi = -mean_t( log pi(a_t|s_t) * A_t ),  A_t = G_t - b_t, standardized if asked.
+        # unbiased as E[grad log pi(a|s) * b] = b * grad sum_a pi(a|s) = 0, so the loss is
+        #   L_pi = -mean_t( log pi(a_t|s_t) * A_t ),  A_t = G_t - b_t, standardized if asked.
         # b_t = V(s_t) (fitted on earlier batches only), the leave-one-out mean of the other episodes' G_t, or 0.
         with_value = self.baseline == "value"
         if with_value:
@@ -376,8 +341,7 @@ class REINFORCE(OnPolicyAlgorithm):
 
         # Entropy bonus (approximated by -log pi when there is no analytical form)
         entropy_loss = -th.mean(-log_prob) if entropy is None else -th.mean(entropy)
-        # The baseline regresses on the returns: L_V = mean_t (G_t - V(s_t))^2, in the same step as the policy
-        # (n_value_steps=0), or in n_value_steps steps of its own after it.
+        # L_V = mean_t (G_t - V(s_t))^2: in the policy's step (n_value_steps=0), or in n_value_steps steps after it.
         value_loss = F.mse_loss(values, returns) if with_value else th.zeros((), device=returns.device)
         loss = policy_loss + self.ent_coef * entropy_loss
         if with_value and self.n_value_steps == 0:
@@ -409,10 +373,7 @@ class REINFORCE(OnPolicyAlgorithm):
     def _fit_value(self, observations: Any, returns: th.Tensor) -> th.Tensor:
         """
         ``n_value_steps`` steps of the value optimizer on ``L_V = mean_t (G_t - V(s_t))^2`` over the whole batch.
-
-        With the features extractor shared with the actor (SB3's default), the value steps do not change it: the
-        features are computed once, without a graph, and each step runs the critic's layers only (the same loss
-        and gradients as ``predict_values``, at a fraction of a CNN's cost).
+        A features extractor shared with the actor (SB3's default) is run once, without a graph, and not trained.
 
         :return: The last step's loss
         """
@@ -437,8 +398,8 @@ class REINFORCE(OnPolicyAlgorithm):
 
     def _clip_grad_norm(self, optimizer: th.optim.Optimizer, what: str) -> th.Tensor:
         """
-        Clip the gradients of ``optimizer``'s parameters to ``max_grad_norm`` (None: measure their norm only, the
-        gradients scaled by exactly 1) and refuse a non-finite norm before the optimizer steps.
+        Clip the gradients of ``optimizer``'s parameters to ``max_grad_norm`` (None: measure only) and refuse a
+        non-finite norm before the optimizer steps.
 
         :return: The gradients' global norm before clipping
         :raises FloatingPointError: naming the timestep; the gradients are zeroed and the weights unchanged
@@ -465,8 +426,7 @@ class REINFORCE(OnPolicyAlgorithm):
         progress_bar: bool = False,
     ) -> SelfREINFORCE:
         """
-        Train for at least ``total_timesteps`` environment steps (all environments counted). The last batch
-        finishes its episodes, so training may run a little past ``total_timesteps``.
+        Train for at least ``total_timesteps`` environment steps (the last batch finishes its episodes, so a little more).
 
         :param total_timesteps: The total number of environment steps to train on
         :param callback: callback(s) called at every step with state of the algorithm.
@@ -488,8 +448,8 @@ class REINFORCE(OnPolicyAlgorithm):
 
 def hyperparameter_defaults() -> dict[str, Any]:
     """
-    REINFORCE's hyperparameters, derived from its constructor: every argument but ``NOT_HYPERPARAMETERS``, with
-    its default, in the constructor's order (the checks, the weights-only format and the zoo's search space read it).
+    REINFORCE's hyperparameters: every constructor argument but ``NOT_HYPERPARAMETERS``, with its default, in order
+    (read by the checks, the weights-only format and the zoo's search space).
     """
     parameters = inspect.signature(REINFORCE).parameters
     return {name: p.default for name, p in parameters.items() if name not in NOT_HYPERPARAMETERS}
@@ -508,8 +468,7 @@ def _integer(minimum: int) -> tuple[Callable[[Any], bool], str]:
 
 
 _LEARNING_RATE = "a finite number >= 0 or a schedule (callable)"
-#: What each hyperparameter allows: (test, description for the error). rollout_buffer_class is checked when the
-#: buffer is built. A test holds the keys equal to :func:`hyperparameter_defaults`.
+#: Each hyperparameter's (test, allowed values for the error); keys as :func:`hyperparameter_defaults` (tested).
 ALLOWED_VALUES: dict[str, tuple[Callable[[Any], bool], str]] = {
     "learning_rate": (lambda v: callable(v) or (_is_number(v) and v >= 0), _LEARNING_RATE),
     "n_episodes": _integer(1),
@@ -528,7 +487,7 @@ ALLOWED_VALUES: dict[str, tuple[Callable[[Any], bool], str]] = {
     "use_sde": (lambda v: isinstance(v, (bool, np.bool_)), "True or False"),
     "sde_sample_freq": _integer(-1),
     "max_rollout_steps": _integer(1),
-    "rollout_buffer_class": (lambda v: True, "an EpisodeRolloutBuffer class"),
+    "rollout_buffer_class": (lambda v: True, "an EpisodeRolloutBuffer class"),  # checked when the buffer is built
     "rollout_buffer_kwargs": (lambda v: v is None or isinstance(v, dict), "None or a dict of keyword arguments"),
     "stats_window_size": _integer(1),
     "tensorboard_log": (lambda v: v is None or isinstance(v, (str, os.PathLike)), "None or a path"),
@@ -563,9 +522,8 @@ def check_hyperparameters(values: Mapping[str, Any]) -> None:
 
 def _check_spaces(observation_space: spaces.Space, action_space: spaces.Space) -> None:
     """
-    Refuse ``Discrete``/``MultiDiscrete`` spaces whose ``start`` is not 0: SB3's preprocessing and action
-    distributions assume values from 0, so such spaces would fail deep inside torch (observations) or silently send
-    the environment actions outside its space (actions).
+    Refuse ``Discrete``/``MultiDiscrete`` spaces whose ``start`` is not 0: SB3's preprocessing and distributions
+    assume 0, so they would fail inside torch (observations) or silently send actions outside the space.
     """
     named = [("action space", action_space)]
     if isinstance(observation_space, spaces.Dict):

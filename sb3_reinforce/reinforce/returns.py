@@ -1,14 +1,10 @@
 """
-The return math of REINFORCE: discounted reward-to-go within episodes, and its standardization.
+The return math of REINFORCE::
 
     G_t = sum_{k=0}^{T-t-1} gamma^k * r_{t+k}        (reward-to-go, restarted at every episode end)
+    G_t = r_t + gamma * G_{t+1},  G_T = 0            (computed so, by scipy's lfilter: no gamma^t underflow)
     G_norm_t = (G_t - mean(G)) / (std(G) + eps)      (over the whole batch, population std)
     b_loo(i, t) = mean_{j != i, T_j > t} G^j_t        (leave-one-out baseline, 0 where no other episode lasted)
-
-The reward-to-go obeys the backward recursion ``G_t = r_t + gamma * G_{t+1}`` (``G_T = 0``): a first-order
-linear filter run over the reversed rewards, which ``scipy.signal.lfilter`` evaluates in C
-(the same trick as Spinning Up's ``discount_cumsum``). Unlike closed forms with ``gamma^t`` factors it
-neither underflows nor loses precision on episodes of 100,000+ steps.
 """
 
 import numpy as np
@@ -68,10 +64,7 @@ def discounted_returns(rewards: np.ndarray, gamma: float, episode_ends: np.ndarr
 def normalize_returns(returns: th.Tensor, eps: float = 1e-8) -> th.Tensor:
     """
     Standardize over the batch: ``(G - mean(G)) / (std(G) + eps)``, population std as in ``np.std``.
-
-    With a single episode in the batch this is exactly the seed's per-episode standardization.
-    When every value is equal (e.g. one-step episodes with the same reward) the result is all zeros,
-    never NaN: such a batch carries no preference between its actions.
+    Equal values (e.g. one-step episodes with the same reward) give all zeros, never NaN.
 
     :param returns: Returns (or advantages), any shape.
     :param eps: Added to the std to keep the division finite.
@@ -83,15 +76,11 @@ def normalize_returns(returns: th.Tensor, eps: float = 1e-8) -> th.Tensor:
 
 def leave_one_out_baseline(returns: np.ndarray, episode_lengths: np.ndarray) -> np.ndarray:
     """
-    Critic-free baseline for a batch of whole episodes: for step ``t`` of episode ``i``, the mean of ``G_t`` over
-    the *other* episodes of the batch that lasted more than ``t`` steps (RLOO's leave-one-out mean, with the time
-    index standing in for the state)::
+    Critic-free leave-one-out baseline (RLOO's, with the time index standing in for the state)::
 
         b(i, t) = sum_{j != i, T_j > t} G^j_t / #{j != i : T_j > t}      (0 when no other episode reached step t)
 
-    The batch's episodes are sampled independently, so ``b(i, t)`` does not depend on the actions of episode ``i``:
-    ``E[grad log pi(a^i_t | s^i_t) * b(i, t)] = E[b(i, t)] * E[grad log pi(a^i_t | s^i_t) | s^i_t] = 0``, and
-    ``G - b`` keeps the policy gradient unbiased.
+    Episodes are sampled independently, so ``b(i, t)`` ignores episode ``i``'s actions and ``G - b`` stays unbiased.
 
     :param returns: The batch's returns ``G``, episode after episode, shape ``(n_steps,)``
     :param episode_lengths: Length of each episode, in order (summing to ``n_steps``)
@@ -101,7 +90,7 @@ def leave_one_out_baseline(returns: np.ndarray, episode_lengths: np.ndarray) -> 
     episode_lengths = np.asarray(episode_lengths, dtype=np.int64)
     if returns.ndim != 1 or episode_lengths.sum() != len(returns):
         raise ValueError(f"episode_lengths sum to {episode_lengths.sum()}, but there are {len(returns)} returns")
-    # Time index of every step within its episode: 0, 1, ..., T_i - 1 for each episode i
+    # Time index of every step within its episode: 0, ..., T_i - 1
     starts = np.repeat(np.cumsum(episode_lengths) - episode_lengths, episode_lengths)
     time_index = np.arange(len(returns)) - starts
     totals = np.bincount(time_index, weights=returns)[time_index]  # sum over every episode at step t

@@ -1,19 +1,14 @@
 """
-The rollout's action sampler: the same distributions as SB3's ``policy.get_distribution(obs).get_actions()``,
-without building ``torch.distributions`` objects at every step (4.5x to 10.6x faster per call,
-``benchmarks/sampler_cost.py``; ``log pi(a|s)`` is evaluated again, with gradients, in ``train()``).
+The rollout's action sampler: SB3's ``policy.get_distribution(obs).get_actions()``, without ``torch.distributions``.
 
-1. One forward pass of the actor to the distribution's parameters: in NumPy, on views of the policy's own
-   parameters, for a plain MLP on a flat ``Box`` (``FlattenExtractor``, ``Linear``, ``Tanh``/``ReLU``); else its
-   torch modules under ``torch.inference_mode``.
-2. Noise from torch's global generator (the stream SB3 seeds), then:
+The actor runs in NumPy on views of its parameters for a plain MLP on a flat ``Box`` (``FlattenExtractor``, ``Linear``,
+``Tanh``/``ReLU``), else in torch under ``inference_mode``; the noise comes from torch's global generator (SB3's seed):
 
-   - categorical, logits ``l`` (``Discrete``, ``MultiDiscrete``): Gumbel-max ``a = argmax_i (l_i - log e_i)``,
-     ``e_i ~ Exp(1)``, which is exactly ``Categorical(softmax(l))``;
-   - Bernoulli (``MultiBinary``): ``a = 1[u < sigmoid(l)]``, ``u ~ U[0, 1)``;
-   - diagonal Gaussian (``Box``): ``a = mu + exp(log_std) * n``, ``n ~ N(0, 1)`` (clipped by the caller, as in SB3).
+- categorical (``Discrete``, ``MultiDiscrete``), logits ``l``: Gumbel-max ``a = argmax_i (l_i - log e_i)``, ``e_i ~ Exp(1)``
+- Bernoulli (``MultiBinary``): ``a = 1[u < sigmoid(l)]``, ``u ~ U[0, 1)``
+- diagonal Gaussian (``Box``): ``a = mu + exp(log_std) * n``, ``n ~ N(0, 1)`` (clipped by the caller, as in SB3)
 
-gSDE, and policies that change how the distribution is built, keep SB3's path.
+Measured 4.5x to 10.6x faster per call than SB3's path (``benchmarks/sampler_cost.py``), the same actions.
 """
 
 from typing import Any
@@ -56,11 +51,7 @@ _NUMPY_ACTIVATIONS = {nn.Tanh: _tanh, nn.ReLU: _relu}
 
 
 class _Noise:
-    """
-    Noise from torch's global generator (a sampler holds no random state, so rebuilding it changes no draw), drawn
-    in place into one preallocated tensor per shape: the values of ``th.empty(shape).exponential_()`` and co.,
-    returned as a NumPy view valid until the next draw of that shape.
-    """
+    """Noise from torch's global generator, drawn in place per shape: a NumPy view valid until the next draw of that shape."""
 
     def __init__(self) -> None:
         self._buffers: dict[tuple[int, ...], tuple[th.Tensor, np.ndarray]] = {}
@@ -90,9 +81,8 @@ class _Noise:
 
 class FastSampler:
     """
-    Samples actions from a :class:`~sb3_reinforce.reinforce.policies.ReinforcePolicy` with as few operations as possible
-    (see the module docstring). Build one per rollout: it reads the policy's parameters in place, so it
-    follows the optimizer's updates, but a parameter *replaced* by a new tensor is only seen by a new sampler.
+    Samples actions from a :class:`~sb3_reinforce.reinforce.policies.ReinforcePolicy` (see the module docstring).
+    Build one per rollout: it reads the parameters in place, but a parameter *replaced* by a new tensor is not seen.
 
     :param policy: The policy to sample from (without gSDE)
     """
