@@ -32,8 +32,8 @@ from sb3_reinforce.lab.envpool_vec_env import (
     split_wrappers,
 )
 from sb3_reinforce.lab.zoo import main as zoo_main
-from sb3_reinforce.lab.zoo.configs import config_path
 from sb3_reinforce.lab.zoo.exp_manager import wrapper_specs
+from sb3_reinforce.lab.zoo.shipped import config_path
 
 #: The CarRacing-v3 zoo entry's wrappers, as the config says them
 CAR_RACING_WRAPPERS = wrapper_specs(yaml.safe_load(config_path("reinforce").read_text())["CarRacing-v3"]["env_wrapper"])

@@ -94,8 +94,8 @@ def test_configs_ship_in_the_installed_package(tmp_path: Path) -> None:
         for pattern in patterns:
             for file in source.glob(pattern):
                 shutil.copy(file, target / file.name)
-    # Load the copied configs module by itself (it needs nothing else), so that __file__ is the copy's.
-    spec = importlib.util.spec_from_file_location("installed_configs", site / "sb3_reinforce/lab/zoo/configs.py")
+    # Load the copied shipped module by itself (it needs nothing else), so that __file__ is the copy's.
+    spec = importlib.util.spec_from_file_location("installed_shipped", site / "sb3_reinforce/lab/zoo/shipped.py")
     assert spec is not None and spec.loader is not None
     installed = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(installed)

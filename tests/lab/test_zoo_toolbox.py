@@ -25,7 +25,7 @@ from huggingface_hub.errors import HfHubHTTPError, RemoteEntryNotFoundError
 
 from sb3_reinforce import REINFORCE
 from sb3_reinforce.lab.zoo import main
-from sb3_reinforce.lab.zoo.trained_agents import TRAINED_AGENTS, agents_folder, shipped_envs, trained_agents_dirs
+from sb3_reinforce.lab.zoo.shipped import TRAINED_AGENTS, agents_folder, shipped_envs, trained_agents_dirs
 
 matplotlib.use("Agg")  # plot_train ends with plt.show()
 

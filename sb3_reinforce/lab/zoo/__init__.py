@@ -6,6 +6,6 @@ registered. Importing this package registers nothing; :func:`register` does.
 """
 
 from sb3_reinforce.lab.zoo.cli import COMMANDS, main, register
-from sb3_reinforce.lab.zoo.configs import config_path
+from sb3_reinforce.lab.zoo.shipped import config_path
 
 __all__ = ["COMMANDS", "config_path", "main", "register"]

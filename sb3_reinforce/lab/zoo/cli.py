@@ -289,7 +289,7 @@ def _shipped_agents_flag(command: str, args: list[str]) -> list[str]:
     :return: The arguments, with ``-f`` set to that folder (unchanged for another ``--algo`` or ``-f``)
     """
     from sb3_reinforce.lab.zoo.exp_manager import ALGO_NAME, ZooUsageError
-    from sb3_reinforce.lab.zoo.trained_agents import TRAINED_AGENTS, agents_folder, shipped_envs, trained_agents_dirs
+    from sb3_reinforce.lab.zoo.shipped import TRAINED_AGENTS, agents_folder, shipped_envs, trained_agents_dirs
 
     parser = argparse.ArgumentParser(add_help=False)
     parser.add_argument("--algo", type=str, default=None)

@@ -27,8 +27,8 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 
 from sb3_reinforce.lab.envpool_vec_env import ENVPOOL, WrapperSpec, check_envpool_env, envpool_vec_env_class, split_wrappers
-from sb3_reinforce.lab.zoo.configs import CONFIG_NAMES, config_path
 from sb3_reinforce.lab.zoo.hyperparams_opt import NORMALIZE_OBSERVATIONS_KWARGS, suggest_n_envs, suggest_normalize_observations
+from sb3_reinforce.lab.zoo.shipped import CONFIG_NAMES, config_path
 from sb3_reinforce.lab.zoo.storage import (
     DATABASE_ERRORS,
     FaultTolerance,
