@@ -48,6 +48,11 @@ __all__ = [
 _ALGO_NAMES = {"reinforce": "REINFORCE", "ppo": "PPO", "a2c": "A2C"}
 
 
+def _display_name(algo: object) -> str:
+    """An algorithm's name in tables and legends (``REINFORCE``; another rl_zoo3 name upper-cased)."""
+    return _ALGO_NAMES.get(str(algo), str(algo).upper())
+
+
 def _median_iqr(values: Sequence[float], fmt: str = "{:,.0f}") -> str:
     values = list(values)
     if not values:
@@ -175,7 +180,7 @@ def overview_table(folders: Sequence[Path]) -> pd.DataFrame:
         per_seed, trained = _per_seed(algo_df)
         row = {
             "env (threshold)": env_id if threshold is None else f"{env_id} ({threshold:g})",
-            "algorithm": _ALGO_NAMES.get(str(algo), str(algo).upper()),
+            "algorithm": _display_name(algo),
             "budget": _steps_short(float(np.median([df["steps"].iloc[-1] for df in per_seed]))),
         }
         if threshold is not None:
@@ -208,7 +213,7 @@ def published_table(folders: Sequence[Path], published: pd.DataFrame, algo: str 
     for folder, env_id, _, run_algo, algo_df in _first_of_each(folders):
         if run_algo == algo:
             ours.setdefault(env_id, (folder, algo_df))
-    name = _ALGO_NAMES.get(algo, algo.upper())
+    name = _display_name(algo)
     rows = []
     for env_id, env_rows in published.groupby("env_id", sort=False):
         row: dict[str, str] = {"env": env_id}
@@ -261,7 +266,7 @@ def summary_table(
         finals = _finals(per_seed, "mean_return")
         low, high = bootstrap_ci(finals, iqm)
         row = {
-            "algorithm": _ALGO_NAMES.get(str(algo), str(algo).upper()),
+            "algorithm": _display_name(algo),
             "seeds": len(per_seed),
             "steps": f"{int(np.median([df['steps'].iloc[-1] for df in per_seed])):,}",
             "final IQM [95% CI]" if compact else "final score, IQM [95% CI]": f"{iqm(finals):.1f} [{low:.1f}, {high:.1f}]",
@@ -320,7 +325,7 @@ def _seeds_label(name: str, n_seeds: int) -> str:
 def _curves(results: pd.DataFrame) -> pd.DataFrame:
     """``results.csv``'s rows for seaborn: steps as the median over seeds (so points line up), display names."""
     steps = results.groupby(["algo", "eval_index"])["steps"].transform("median")
-    return results.assign(steps=steps, algorithm=results["algo"].map(lambda algo: _ALGO_NAMES.get(algo, algo.upper())))
+    return results.assign(steps=steps, algorithm=results["algo"].map(_display_name))
 
 
 def _finish_plot(
