@@ -19,6 +19,7 @@ import pytest
 import rl_zoo3.exp_manager
 import sqlalchemy
 import yaml
+from gymnasium.envs.classic_control import CartPoleEnv
 from stable_baselines3 import A2C, PPO, TD3
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
@@ -462,6 +463,24 @@ def test_env_without_config_entry(tmp_path: Path, capsys: pytest.CaptureFixture[
     assert f"{CONFIGS['reinforce']} has no entry for FrozenLake-v1 (it has: Acrobot-v1, CarRacing-v3" in err
     assert main(train_args(tmp_path, "-conf", str(tmp_path / "missing.yml"))) == 2
     assert "missing.yml (-conf/--conf-file) does not exist" in capsys.readouterr().err
+
+
+class AtariEnv(CartPoleEnv):
+    """A CartPole that rl_zoo3 takes for an Atari env (``ExperimentManager.is_atari`` reads the entry point's name)."""
+
+
+def test_atari_env_needs_the_atari_entry(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # rl_zoo3 reads an Atari env's "atari" entry, never "default": a file with only "default" was a KeyError traceback
+    gym.register("AtariLikeCartPole-v0", entry_point=AtariEnv, max_episode_steps=100)
+    try:
+        config = tmp_path / "default_only.yml"
+        config.write_text(yaml.safe_dump({"default": {"n_timesteps": 1000, "policy": "MlpPolicy"}}))
+        args = ["train", "--algo", "reinforce", "--env", "AtariLikeCartPole-v0", "-n", "100", "--eval-freq", "-1"]
+        assert main([*args, "-f", str(tmp_path), "-conf", str(config)]) == 2
+        err = capsys.readouterr().err
+        assert "has no entry for AtariLikeCartPole-v0 (it has: default), nor the 'atari' entry" in err
+    finally:
+        del gym.registry["AtariLikeCartPole-v0"]
 
 
 def test_bad_input_from_the_command_line_has_no_traceback(tmp_path: Path) -> None:

@@ -155,14 +155,16 @@ class ReinforceExperimentManager(ExperimentManager):
             if not isinstance(entries, dict):
                 raise ZooUsageError(f"{self.config} must map env ids to hyperparameters")
             env_id = self.env_name.gym_id
-            if env_id not in entries and "default" not in entries and not (self._is_atari and "atari" in entries):
+            # rl_zoo3's order: the env's own entry, else "atari" for an Atari env (never "default"), else "default"
+            fallback = "atari" if self._is_atari else "default"
+            if env_id not in entries and fallback not in entries:
                 raise ZooUsageError(
-                    f"{self.config} has no entry for {env_id} (it has: {', '.join(sorted(entries))}). "
-                    f"Add one, or pass another file with {self.config_flag}."
+                    f"{self.config} has no entry for {env_id} (it has: {', '.join(sorted(entries))})"
+                    + (", nor the 'atari' entry rl_zoo3 uses for Atari envs" if self._is_atari else "")
+                    + f". Add one, or pass another file with {self.config_flag}."
                 )
-            # rl_zoo3's order: the env's own entry, else "atari" for an Atari env, else "default"
             if env_id not in entries:
-                self.fallback_entry = "atari" if self._is_atari and "atari" in entries else "default"
+                self.fallback_entry = fallback
         hyperparams, saved_hyperparams = super().read_hyperparameters()
         if self.trial_id == 0 and self.storage and self.study_name:
             # rl_zoo3 tests `if self.trial_id:`, which skips trial 0: load it here, -params still on top
