@@ -155,14 +155,8 @@ def parse_zoo_entry(hyperparams: dict[str, Any]) -> dict[str, Any]:
     return ExperimentManager._preprocess_schedules(parsed)
 
 
-def convert_reinforce_params(sampled_params: dict[str, Any]) -> dict[str, Any]:
-    """
-    Convert a trial's stored values into zoo hyperparameters (the zoo's ``--trial-id`` loading).
-
-    :param sampled_params: A trial's ``params``
-    :return: :func:`zoo_entry` of them
-    """
-    return zoo_entry(sampled_params)
+#: Converts a trial's stored values into zoo hyperparameters (the zoo's ``--trial-id`` loading): :func:`zoo_entry`.
+convert_reinforce_params = zoo_entry
 
 
 def sample_reinforce_params(

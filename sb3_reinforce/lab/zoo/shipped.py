@@ -11,9 +11,7 @@ __all__ = [
     "CONFIG_NAMES",
     "TRAINED_AGENTS",
     "agents_folder",
-    "config_dirs",
     "config_path",
-    "shipped_dirs",
     "shipped_envs",
     "trained_agents_dirs",
 ]
@@ -22,25 +20,8 @@ __all__ = [
 CONFIG_NAMES = ("reinforce", "reinforce_seed")
 
 
-def shipped_dirs(package_folder: str, source_folder: str) -> list[Path]:
-    """
-    The candidate paths of a folder shipped with the package.
-
-    :param package_folder: Its name inside ``sb3_reinforce/lab/zoo/`` once installed
-    :param source_folder: Its name at the repository's root
-    :return: Both candidate paths, the installed one first
-    """
-    here = Path(__file__).resolve().parent
-    return [here / package_folder, here.parents[2] / source_folder]
-
-
-def config_dirs() -> list[Path]:
-    """
-    The folders searched for the hyperparameter files, first match wins.
-
-    :return: The installed ``configs/`` folder, then the checkout's ``zoo_configs/``
-    """
-    return shipped_dirs("configs", "zoo_configs")
+#: This module's folder: the shipped folders are beside it once installed, at the checkout's root (``parents[2]``) else.
+_HERE = Path(__file__).resolve().parent
 
 
 def config_path(name: str = "reinforce") -> Path:
@@ -52,11 +33,12 @@ def config_path(name: str = "reinforce") -> Path:
     """
     if name not in CONFIG_NAMES:
         raise ValueError(f"`name` must be one of {CONFIG_NAMES}, got {name!r}")
-    for folder in config_dirs():
+    folders = [_HERE / "configs", _HERE.parents[2] / "zoo_configs"]  # installed, then the checkout's
+    for folder in folders:
         candidate = folder / f"{name}.yml"
         if candidate.is_file():
             return candidate
-    searched = ", ".join(str(folder) for folder in config_dirs())
+    searched = ", ".join(str(folder) for folder in folders)
     raise FileNotFoundError(f"{name}.yml not found (searched {searched}): the sb3-reinforce installation is incomplete")
 
 
@@ -70,7 +52,7 @@ def trained_agents_dirs() -> list[Path]:
 
     :return: The installed ``trained_agents/`` folder, then the checkout's ``rl-trained-agents/``
     """
-    return shipped_dirs("trained_agents", TRAINED_AGENTS)
+    return [_HERE / "trained_agents", _HERE.parents[2] / TRAINED_AGENTS]
 
 
 def _has_agent(folder: Path, algo: str, env_id: str) -> bool:

@@ -136,8 +136,7 @@ def retried_trial_number(trial: FrozenTrial) -> int | None:
 
 def _original(trial: FrozenTrial) -> int:
     """The number of the trial that ``trial`` retries (through any chain of retries), or its own number."""
-    history = retry_history(trial)
-    return history[0] if history else trial.number
+    return (retry_history(trial) or [trial.number])[0]
 
 
 def _ended_by_itself(trial: FrozenTrial) -> bool:
