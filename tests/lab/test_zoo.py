@@ -400,6 +400,9 @@ def test_distributed_study_two_workers(tmp_path: Path) -> None:
     assert len(finished) == 2
     worker_pids = {int(trial.user_attrs["worker"].rsplit(":", 1)[1]) for trial in finished}
     assert worker_pids == {worker.pid for worker in workers}
+    # As rl_zoo3 records a study: its command and the entry's default hyperparameters
+    assert "sb3_reinforce.lab.zoo" in study.user_attrs["command"]
+    assert study.user_attrs["policy"] == "MlpPolicy"
 
 
 # ---- bad input: one clear line on stderr and exit status 2, no traceback ----

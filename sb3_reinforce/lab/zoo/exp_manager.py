@@ -329,8 +329,10 @@ class ReinforceExperimentManager(ExperimentManager):
         :param study: The study
         :param storage: Its storage (the one the study was created with)
         """
-        if "command" not in study.user_attrs:
+        if "command" not in study.user_attrs:  # rl_zoo3's record of the study's command and default hyperparameters
             study.set_user_attr("command", " ".join(sys.orig_argv))
+            for key in sorted(self._hyperparams):
+                study.set_user_attr(key, str(self._hyperparams[key]))
         finished_states = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)
         tolerance = self.fault_tolerance
         done_here = 0
