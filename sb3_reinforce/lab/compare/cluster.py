@@ -8,7 +8,6 @@ retried :data:`RUN_RETRIES` times; Ctrl-C or SIGTERM stops the runs within a sec
 
 import contextlib
 import logging
-import multiprocessing
 import os
 import shutil
 import signal
@@ -20,7 +19,19 @@ from pathlib import Path
 from typing import Any
 
 import dask
-from distributed import Client, Event, LocalCluster, Queue, Variable, Worker, WorkerPlugin, get_worker, wait
+from distributed import (
+    Client,
+    Event,
+    LocalCluster,
+    Nanny,
+    NannyPlugin,
+    Queue,
+    Variable,
+    Worker,
+    WorkerPlugin,
+    get_worker,
+    wait,
+)
 
 __all__ = [
     "CONNECT_TIMEOUT_S",
@@ -30,6 +41,7 @@ __all__ = [
     "LendThreadsAsCPUs",
     "RunChannel",
     "RunStopped",
+    "StartWorkersForRuns",
     "open_client",
     "run_jobs",
     "sigterm_as_interrupt",
@@ -110,6 +122,30 @@ def sigterm_as_interrupt() -> Iterator[None]:
 MALLOC_TRIM = "MALLOC_TRIM_THRESHOLD_"
 
 
+class StartWorkersForRuns(NannyPlugin):
+    """
+    Have a nanny start its worker process as runs need it, whatever the worker's Dask configuration: not daemonic
+    (``--vec-env subproc`` starts processes there) and without :data:`MALLOC_TRIM`. A running worker process started
+    otherwise is restarted once; the nanny reads ``restart`` after ``setup`` (distributed 2026.8).
+    """
+
+    restart = False
+
+    def setup(self, nanny: Nanny) -> None:
+        """
+        Change the nanny's settings for its next worker process; restart the running one if they were not so.
+
+        :param nanny: The nanny
+        """
+        started_otherwise = bool(dask.config.get("distributed.worker.daemon", default=True)) or any(
+            MALLOC_TRIM in environ for environ in (nanny.pre_spawn_env, nanny.env, os.environ)
+        )
+        dask.config.set({"distributed.worker.daemon": False})  # in the nanny's process, read at each start
+        for environ in (nanny.pre_spawn_env, nanny.env, os.environ):  # the nanny's copies (the last: set at a start)
+            environ.pop(MALLOC_TRIM, None)
+        self.restart = started_otherwise and nanny.process is not None
+
+
 @contextlib.contextmanager
 def open_client(scheduler: str | None, n_workers: int, worker_cpus: int, dashboard: str | None = None) -> Iterator[Client]:
     """
@@ -159,15 +195,14 @@ def open_client(scheduler: str | None, n_workers: int, worker_cpus: int, dashboa
 
 def worker_versions() -> dict[str, str | None]:
     """
-    On a worker: the versions of :data:`CHECKED_PACKAGES` it imports (None: not installed) and ``"daemonic"`` (``"yes"``
-    or ``"no"``: a daemonic process cannot start ``--vec-env subproc``'s processes). Not ``Client.get_versions``, which
-    reads installed metadata and only warns (distributed 2026.8).
+    On a worker: the versions of :data:`CHECKED_PACKAGES` it imports (None: not installed). Not
+    ``Client.get_versions``, which reads installed metadata and only warns (distributed 2026.8).
 
     :return: Package -> version
     """
     import importlib
 
-    versions: dict[str, str | None] = {"daemonic": "yes" if multiprocessing.current_process().daemon else "no"}
+    versions: dict[str, str | None] = {}
     for package in CHECKED_PACKAGES:
         try:
             versions[package] = str(importlib.import_module(package).__version__)
@@ -176,20 +211,13 @@ def worker_versions() -> dict[str, str | None]:
     return versions
 
 
-def malloc_trim_threshold() -> str | None:
-    """On a worker: its process's :data:`MALLOC_TRIM` (None: unset, glibc's dynamic thresholds)."""
-    return os.environ.get(MALLOC_TRIM)
-
-
-def check_workers(client: Client, cpus: int, scheduler: str, subprocesses: bool = False) -> list[str]:
+def check_workers(client: Client, cpus: int, scheduler: str) -> None:
     """
-    Refuse a cluster without a fit worker (none, other package versions, too few CPUs); warn of :data:`MALLOC_TRIM`.
+    Refuse a cluster without a fit worker (none, other package versions, too few CPUs), then set the workers up for runs.
 
     :param client: The cluster's client
     :param cpus: The CPUs the largest run asks for
     :param scheduler: The scheduler's address, for the messages
-    :param subprocesses: Whether the runs start processes of their own (then a worker must not be daemonic)
-    :return: The warnings, one line each
     :raises ClusterError: naming the worker and what differs
     """
     workers = client.scheduler_info(n_workers=-1)["workers"]
@@ -203,15 +231,10 @@ def check_workers(client: Client, cpus: int, scheduler: str, subprocesses: bool 
         if isinstance(answer, BaseException):
             raise ClusterError(f"worker {name} cannot run sb3-reinforce: {type(answer).__name__}: {answer}")
         differ = [f"{pkg} {answer.get(pkg)} (here {version})" for pkg, version in ours.items() if answer.get(pkg) != version]
-        differ = [text for text in differ if not text.startswith("daemonic")]
         if differ:
             raise ClusterError(f"worker {name} has other versions: {', '.join(differ)}")
-        if subprocesses and answer["daemonic"] == "yes":
-            raise ClusterError(
-                f"worker {name} is a daemonic process and cannot start --vec-env subproc's environment "
-                "processes: start it with DASK_DISTRIBUTED__WORKER__DAEMON=False"
-            )
     # Every worker has the package now, so it can unpickle the plugins (which reach later workers too)
+    client.register_plugin(StartWorkersForRuns())
     client.register_plugin(LendThreadsAsCPUs())
     client.register_plugin(IgnoreInterrupt())
     workers = client.scheduler_info(n_workers=-1)["workers"]
@@ -222,13 +245,6 @@ def check_workers(client: Client, cpus: int, scheduler: str, subprocesses: bool 
             f"`dask worker {scheduler} --nthreads {cpus}` (its threads are the CPUs it lends) or "
             f"`--resources {CPU_RESOURCE}={cpus}`"
         )
-    return [
-        f"worker {workers.get(address, {}).get('name', address)} ({address}) runs with {MALLOC_TRIM}={value} "
-        "(Dask's default for the processes its nanny starts), where training on images runs about 2x slower: start "
-        "workers with the Dask configuration of the guide's 'A comparison across machines'"
-        for address, value in sorted(client.run(malloc_trim_threshold).items())
-        if value is not None
-    ]
 
 
 class RunChannel:

@@ -274,8 +274,7 @@ def _run_all(todo: list[RunSpec], out_dir: Path, args: argparse.Namespace) -> di
         tqdm(total=sum(budgets.values()), unit="step", disable=args.no_progress, desc="compare") as bar,
     ):
         if args.scheduler is not None:
-            for warning in check_workers(client, most_cpus, args.scheduler, subprocesses=args.vec_env == "subproc"):
-                bar.write(f"sb3-reinforce compare: warning: {warning}", file=sys.stderr)
+            check_workers(client, most_cpus, args.scheduler)
         if dashboard is not None:
             bar.write(f"Dask dashboard: {client.dashboard_link}")
 
