@@ -64,33 +64,42 @@ def test_summary_is_the_committed_results(page: str, monkeypatch: pytest.MonkeyP
         )
 
 
-#: The command that writes a page's table of published results (the comparison folders, the CSV), and on the results
-#: page its figure too
+#: The command that writes a page's table of published results (the comparison folders, the CSV, the algorithm held
+#: against it), and on the results page its figure too
 PUBLISHED_COMMAND = (
-    r"`sb3-reinforce report ((?:benchmarks/results/\S+ )*)--published (\S+) --published-into {page}(?: --figure (\S+))?`"
+    r"`sb3-reinforce report ((?:benchmarks/results/\S+ )*)--published (\S+)(?: --published-algo (\S+))? "
+    r"--published-into {page}(?: --figure (\S+))?`"
 )
 
 
 @pytest.mark.parametrize("page", ["README.md", "docs/results.md"])
 def test_published_table_is_the_committed_results(page: str, monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     # The MuJoCo tables of the README and of the results page are what `report --published` makes of the committed
-    # folders and the published numbers' CSV, so they cannot go stale; the results page shows the figure the same
+    # folders and the published numbers' CSV, so they cannot go stale (REINFORCE's against the published REINFORCE,
+    # and on the results page PPO's against rl_zoo3's published PPO); the results page shows the figure the same
     # command draws, one panel per env of the folders
     from sb3_reinforce.lab.compare.figures import plot_overview, published_table, to_markdown
 
     text = (REPO / page).read_text()
-    command = re.search(PUBLISHED_COMMAND.format(page=re.escape(page)), text)
-    assert command is not None, f"{page} names the command that writes its published table"
+    commands = list(re.finditer(PUBLISHED_COMMAND.format(page=re.escape(page)), text))
+    assert commands, f"{page} names the command that writes its published table"
     monkeypatch.chdir(REPO)
-    folders = [Path(name) for name in command.group(1).split()]
-    block = re.search(r"<!-- published -->\n(.*?)<!-- /published -->", text, re.DOTALL)
-    assert block is not None
-    published = pd.read_csv(command.group(2))
-    assert block.group(1) == to_markdown(published_table(folders, published))
+    for command in commands:
+        folders = [Path(name) for name in command.group(1).split()]
+        algo = command.group(3) or "reinforce"
+        marker = "published" if algo == "reinforce" else f"published:{algo}"
+        block = re.search(rf"<!-- {marker} -->\n(.*?)<!-- /{marker} -->", text, re.DOTALL)
+        assert block is not None
+        published = pd.read_csv(command.group(2))
+        assert block.group(1) == to_markdown(published_table(folders, published, algo))
+        if command.group(4) is not None:
+            figure = Path(command.group(4))
+            assert figure.is_file() and f"]({figure.relative_to('docs')})" in text
+            axes = plot_overview(folders, tmp_path / "figure.png").axes
+            envs = [json.loads((folder / "comparison.json").read_text())["env"] for folder in folders]
+            assert [ax.get_title() for ax in axes if ax.get_title()] == envs
+        if algo == "reinforce":
+            assert len(published["env_id"].unique()) == 9  # the nine envs of Tianshou's table
     if page == "docs/results.md":
-        figure = Path(command.group(3))
-        assert figure.is_file() and f"]({figure.relative_to('docs')})" in text
-        axes = plot_overview(folders, tmp_path / "figure.png").axes
-        envs = [json.loads((folder / "comparison.json").read_text())["env"] for folder in folders]
-        assert [ax.get_title() for ax in axes if ax.get_title()] == envs
-    assert len(published["env_id"].unique()) == 9  # the nine envs of Tianshou's table
+        # REINFORCE's table with the figure, then PPO's
+        assert [(command.group(3), command.group(4) is not None) for command in commands] == [(None, True), ("ppo", False)]

@@ -1,7 +1,7 @@
 """
 ``sb3-reinforce report DIR [DIR ...] [--readme README.md] [--summary FILE] [--figure PNG] [--published CSV
-[--published-into FILE]]``: rebuild result folders' tables and plots, print their markdown tables and optionally
-write them into markdown files between ``<!-- MARKER -->`` comments.
+[--published-algo ALGO] [--published-into FILE]]``: rebuild result folders' tables and plots, print their markdown
+tables and optionally write them into markdown files between ``<!-- MARKER -->`` comments.
 """
 
 import argparse
@@ -12,6 +12,7 @@ from pathlib import Path
 import pandas as pd
 
 from sb3_reinforce.lab.compare.command import write_outputs
+from sb3_reinforce.lab.compare.experiment import known_algos
 from sb3_reinforce.lab.compare.figures import (
     PER_RUN_DIR,
     overview_table,
@@ -106,15 +107,23 @@ def build_parser() -> argparse.ArgumentParser:
         type=Path,
         default=None,
         help="also print the published results of this CSV (env_id, source, budget, mean, std; e.g. "
-        "benchmarks/published/reinforce_mujoco.csv) beside REINFORCE's in the comparison folders, by the published "
-        "metric: the best mean over seeds of the evaluation return (default: no such table)",
+        "benchmarks/published/reinforce_mujoco.csv) beside --published-algo's in the comparison folders, by the "
+        "published metric: the best mean over seeds of the evaluation return (default: no such table)",
+    )
+    parser.add_argument(
+        "--published-algo",
+        default="reinforce",
+        metavar="ALGO",
+        help="with --published: the algorithm of the comparison folders held against it, one of the folders' "
+        "(default: reinforce)",
     )
     parser.add_argument(
         "--published-into",
         type=Path,
         default=None,
         help="with --published: also write that table into this markdown file, between <!-- published --> and "
-        "<!-- /published --> (default: no file is written)",
+        "<!-- /published --> (for another --published-algo than reinforce: <!-- published:ALGO --> and "
+        "<!-- /published:ALGO -->) (default: no file is written)",
     )
     parser.add_argument(
         "--readme",
@@ -152,16 +161,19 @@ def main(argv: list[str] | None = None) -> None:
         if not write_between_markers(args.summary, "summary", overview):
             parser.error(f"{args.summary} has no <!-- summary --> and <!-- /summary --> markers")
         print(f"{args.summary}: summary updated")
-    if args.published_into is not None and args.published is None:
-        parser.error("--published-into needs --published CSV")
+    if args.published is None and (args.published_into is not None or args.published_algo != "reinforce"):
+        parser.error("--published-into and --published-algo need --published CSV")
     if args.published is not None:
         if not args.published.is_file():
             parser.error(f"--published: no such file {args.published}")
-        published = to_markdown(published_table(comparisons, pd.read_csv(args.published)))
+        if args.published_algo not in known_algos():
+            parser.error(f"--published-algo: unknown algorithm {args.published_algo!r} (one of: {known_algos()})")
+        published = to_markdown(published_table(comparisons, pd.read_csv(args.published), args.published_algo))
         print(f"## Published results\n\n{published}")
         if args.published_into is not None:
-            if not write_between_markers(args.published_into, "published", published):
-                parser.error(f"{args.published_into} has no <!-- published --> and <!-- /published --> markers")
+            marker = "published" if args.published_algo == "reinforce" else f"published:{args.published_algo}"
+            if not write_between_markers(args.published_into, marker, published):
+                parser.error(f"{args.published_into} has no <!-- {marker} --> and <!-- /{marker} --> markers")
             print(f"{args.published_into}: published table updated")
     if args.readme is not None:
         updated = update_readme(args.readme, tables)

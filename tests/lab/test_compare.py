@@ -686,6 +686,8 @@ def test_published_table_hand_computed(tmp_path: Path, capsys: pytest.CaptureFix
         [
             dict(env_id="Hopper-v4", source="A", budget=2000, mean=2.0, std=0.5, approximate=False),
             dict(env_id="Hopper-v4", source="B", budget=2000, mean=3.0, std=np.nan, approximate=True),
+            # C evaluates deterministic actions: held against the deterministic figure (3.5) only
+            dict(env_id="Hopper-v4", source="C", budget=2000, mean=3.0, std=np.nan, deterministic=True),
             dict(env_id="Hopper-v4", source="A", budget=10000, mean=9.0, std=np.nan, approximate=False),
             dict(env_id="Ant-v4", source="A", budget=2000, mean=1.0, std=0.1, approximate=False),
         ]
@@ -694,8 +696,12 @@ def test_published_table_hand_computed(tmp_path: Path, capsys: pytest.CaptureFix
     hopper, ant = table.iloc[0], table.iloc[1]
     assert (hopper["A, 2k"], hopper["B, 2k"], hopper["A, 10k"]) == ("2 ± 0.5", "~3", "9")
     assert hopper["REINFORCE here"] == "3.5 ± 0.5 (2k)" and hopper["REINFORCE here, sampled actions"] == "2.5 ± 0.5"
-    # Judged by the lower figure (2.5): above A's 2, below B's 3; the 10k number is another budget
+    # Judged by the lower figure (2.5): above A's 2, below B's 3; C by the deterministic one (3.5 >= 3); the 10k
+    # number is another budget
     assert hopper["at or above the published"] == "below B (3)"
+    published.loc[published["source"] == "C", "mean"] = 3.6
+    assert published_table([folder], published).iloc[0]["at or above the published"] == "below B (3), C (3.6)"
+    published.loc[published["source"] == "C", "mean"] = 3.0
     assert hopper["final IQM [95% CI]"].startswith("2.5 [") and hopper["seeds"] == "0, 1"
     assert ant["REINFORCE here"] == "not measured yet" and ant["A, 2k"] == "1 ± 0.1"
     # A seed still running counts only at the points both have reached: seed 2 stops after the first point
@@ -708,7 +714,22 @@ def test_published_table_hand_computed(tmp_path: Path, capsys: pytest.CaptureFix
     render_main([str(folder), "--published", str(csv_path), "--published-into", str(page)])
     assert page.read_text() == "a\n<!-- published -->\n" + to_markdown(table) + "<!-- /published -->\nb\n"
     assert "published table updated" in capsys.readouterr().out
-    for bad in (["--published-into", str(page)], ["--published", str(tmp_path / "none.csv")]):
+    # Another algorithm of the folders against its own published numbers, between its own markers
+    _fake_comparison(tmp_path / "ppo", "Hopper-v4", 3.0, {("ppo", 0): [0, 4, 2], ("reinforce", 0): [1, 1, 1]})
+    page.write_text("<!-- published:ppo -->\nold\n<!-- /published:ppo -->\n")
+    render_main(
+        [str(tmp_path / "ppo"), "--published", str(csv_path), "--published-algo", "ppo", "--published-into", str(page)]
+    )
+    ppo_table = published_table([tmp_path / "ppo"], published, "ppo")
+    assert ppo_table.iloc[0]["PPO here"].startswith("4.0 ± 0.0") and "REINFORCE here" not in ppo_table
+    assert page.read_text() == "<!-- published:ppo -->\n" + to_markdown(ppo_table) + "<!-- /published:ppo -->\n"
+    for bad in (
+        ["--published-into", str(page)],
+        ["--published", str(tmp_path / "none.csv")],
+        ["--published-algo", "ppo"],
+        ["--published", str(csv_path), "--published-algo", "nosuchalgo"],
+        ["--published", str(csv_path), "--published-into", str(page)],  # the page has PPO's markers only
+    ):
         with pytest.raises(SystemExit):
             render_main([str(folder), *bad])
 

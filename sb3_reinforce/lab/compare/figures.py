@@ -201,11 +201,13 @@ def overview_table(folders: Sequence[Path]) -> pd.DataFrame:
 def published_table(folders: Sequence[Path], published: pd.DataFrame, algo: str = "reinforce") -> pd.DataFrame:
     """
     Published results beside this package's best mean over seeds (deterministic and sampled actions), final IQM
-    and seeds. A row meets a published number of the same budget only if both of its figures do.
+    and seeds. A row meets a published number of the same budget only if both of its figures do (only the
+    deterministic one for a source marked ``deterministic``).
 
     :param folders: Comparison output folders (the first that ran ``algo`` on an env is used)
     :param published: Rows of ``env_id``, ``source``, ``budget`` (steps), ``mean``, ``std`` (NaN if none) and
-        optionally ``approximate`` (True: read off a plot, shown as ``~``)
+        optionally ``approximate`` (True: read off a plot, shown as ``~``) and ``deterministic`` (True: the source
+        evaluates deterministic actions, so only the deterministic figure is held against it)
     :param algo: The algorithm of the folders to read
     :return: A table of strings, one row per env of ``published`` in order ("not measured yet" where none ran)
     """
@@ -214,6 +216,7 @@ def published_table(folders: Sequence[Path], published: pd.DataFrame, algo: str 
         if run_algo == algo:
             ours.setdefault(env_id, (folder, algo_df))
     name = _display_name(algo)
+    published = published.assign(deterministic=published.get("deterministic", False)).fillna({"deterministic": False})
     rows = []
     for env_id, env_rows in published.groupby("env_id", sort=False):
         row: dict[str, str] = {"env": env_id}
@@ -241,7 +244,12 @@ def published_table(folders: Sequence[Path], published: pd.DataFrame, algo: str 
         row["final IQM [95% CI]"] = f"{iqm(finals):.1f} [{low:.1f}, {high:.1f}]"
         row["seeds"] = _seed_range([int(seed) for seed in algo_df["seed"].unique()])
         same_budget = env_rows[env_rows["budget"].map(lambda steps: _steps_short(float(steps))) == _steps_short(budget)]
-        below = [f"{entry['source']} ({entry['mean']:g})" for _, entry in same_budget.iterrows() if best < entry["mean"]]
+        below = [
+            f"{entry['source']} ({entry['mean']:g})"
+            for _, entry in same_budget.iterrows()
+            # a source that evaluates deterministic actions (rl_zoo3's benchmark) meets the deterministic figure only
+            if (figures[0][0] if entry["deterministic"] else best) < entry["mean"]
+        ]
         row["at or above the published"] = "-" if same_budget.empty else ("yes" if not below else "below " + ", ".join(below))
         row["folder"] = f"`{Path(folder).as_posix().rstrip('/')}`"
         rows.append(row)
