@@ -7,7 +7,9 @@ the evaluations so far: each (candidate, env)'s figures over the tuning seeds, a
 A candidate's score on an env is Tianshou's metric over seeds 100 and 101 (the best mean over seeds of the
 deterministic evaluations, :func:`~sb3_reinforce.lab.compare.figures.best_mean`); the highest wins, except that two
 within 2% of the env's threshold's magnitude are ranked by the mean over the two seeds of their last five evaluations
-(2.8M to 3M steps). An env is decided once all three candidates reached 3M steps on both seeds.
+(2.8M to 3M steps). An env is decided once all three candidates reached 3M steps on both seeds, except that an env
+of ``STAGE_2`` whose stage-1 pick stays below its threshold is decided by the same rule over stage 1's and stage 2's
+candidates together, once those have reached 3M steps too.
 """
 
 import argparse
@@ -20,6 +22,9 @@ from sb3_reinforce.lab.compare.figures import best_mean
 
 STUDY = Path(__file__).parent / "results" / "mujoco_tuning"
 CANDIDATES = ("a_value4", "b_value4_lr3", "c_value8")
+#: Stage 2 (the README's, written before its runs): its candidates per env, run only if the env's stage-1 pick stays
+#: below the threshold on the tuning seeds
+STAGE_2 = {"Swimmer-v4": ("d_gamma999", "e_gamma9999", "f_gamma9999_lr3")}
 SEEDS = (100, 101)
 BUDGET = 3_000_000
 TIE_SHARE = 0.02
@@ -33,7 +38,7 @@ def candidate_scores(study: Path) -> pd.DataFrame:
     """
     thresholds = _thresholds(study)
     rows = []
-    for candidate in CANDIDATES:
+    for candidate in dict.fromkeys(CANDIDATES + sum(STAGE_2.values(), ())):
         for folder in sorted((study / candidate).glob("*-v*")):
             runs = [pd.read_csv(path) for path in sorted((folder / "per_run").glob("reinforce_seed*.csv"))]
             runs = [run for run in runs if int(run["seed"].iloc[0]) in SEEDS and len(run)]
@@ -61,13 +66,23 @@ def _thresholds(study: Path) -> dict[str, float]:
 
 def pick(scores: pd.DataFrame, env: str) -> str | None:
     """
-    The rule's pick on ``env``, or None until every candidate finished on both seeds.
+    The rule's pick on ``env``, or None until every candidate it needs finished on both seeds: stage 1's, and
+    stage 2's too where the env has one and stage 1's pick stays below the threshold.
 
     :param scores: :func:`candidate_scores`'s table
     :param env: The env id
     """
-    rows = scores[scores["env"] == env]
-    if set(rows["candidate"]) != set(CANDIDATES) or not rows["finished"].all():
+    chosen = _best(scores, env, CANDIDATES)
+    if chosen is None or env not in STAGE_2:
+        return chosen
+    row = scores[(scores["env"] == env) & (scores["candidate"] == chosen)].iloc[0]
+    return chosen if row["best mean"] >= row["threshold"] else _best(scores, env, CANDIDATES + STAGE_2[env])
+
+
+def _best(scores: pd.DataFrame, env: str, candidates: tuple[str, ...]) -> str | None:
+    """The rule over ``candidates`` on ``env`` (None until all of them finished on both seeds)."""
+    rows = scores[(scores["env"] == env) & scores["candidate"].isin(candidates)]
+    if set(rows["candidate"]) != set(candidates) or not rows["finished"].all():
         return None
     ranked = rows.sort_values("best mean", ascending=False)
     best, second = ranked.iloc[0], ranked.iloc[1] if len(ranked) > 1 else None
@@ -89,7 +104,7 @@ def main() -> None:
     print(scores.to_string(index=False, float_format=lambda x: f"{x:,.1f}"))
     for env in dict.fromkeys(scores["env"]):
         chosen = pick(scores, env)
-        print(f"{env}: " + (f"pick {chosen}" if chosen else "undecided (a candidate has not reached 3M on both seeds)"))
+        print(f"{env}: " + (f"pick {chosen}" if chosen else "undecided (a candidate it needs is short of 3M on a seed)"))
 
 
 if __name__ == "__main__":

@@ -361,3 +361,32 @@ def test_mujoco_tuning_rule(tmp_path: Path) -> None:
     assert tuning.pick(tuning.candidate_scores(tmp_path), "Hopper-v4") == "b_value4_lr3"
     run("b_value4_lr3", 100, [0, 900, *[900] * 5])  # b's best mean 950: no tie, a's 1,000 wins
     assert tuning.pick(tuning.candidate_scores(tmp_path), "Hopper-v4") == "a_value4"
+
+
+def test_mujoco_tuning_stage_2(tmp_path: Path) -> None:
+    # Swimmer-v4's stage 2: needed only when stage 1's pick stays below the threshold (51); then the rule runs over
+    # all six candidates, and nothing is decided until stage 2's have reached 3M steps too
+    tuning = load("mujoco_tuning")
+
+    def run(candidate: str, best: float) -> None:
+        folder = tmp_path / candidate / "Swimmer-v4"
+        (folder / "per_run").mkdir(parents=True, exist_ok=True)
+        (folder / "comparison.json").write_text('{"env": "Swimmer-v4", "threshold": 51}')
+        for seed in (100, 101):
+            frame = {"seed": seed, "eval_index": range(3), "steps": [0, 1_500_000, 3_000_000], "mean_return": [0, best, 0]}
+            frame["mean_return_stochastic"] = frame["mean_return"]
+            pd.DataFrame(frame).to_csv(folder / "per_run" / f"reinforce_seed{seed}.csv", index=False)
+
+    for candidate, best in (("a_value4", 30.0), ("b_value4_lr3", 40.0), ("c_value8", 20.0)):
+        run(candidate, best)
+    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4") is None  # 40 < 51: stage 2 has not run
+    for candidate, best in zip(tuning.STAGE_2["Swimmer-v4"], (35.0, 120.0, 90.0), strict=True):
+        run(candidate, best)
+    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4") == "e_gamma9999"
+    run("b_value4_lr3", 60.0)  # stage 1's pick at or above 51: stage 2 is not consulted
+    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4") == "b_value4_lr3"
+    # every stage 2 candidate has its config, with an entry for its env only
+    configs = BENCHMARKS / "configs" / "mujoco_tuning"
+    for env, candidates in tuning.STAGE_2.items():
+        for candidate in candidates:
+            assert list(yaml.safe_load((configs / f"{candidate}.yml").read_text())) == [env]
