@@ -79,6 +79,7 @@ def test_published_table_is_the_committed_results(page: str, monkeypatch: pytest
     # and on the results page PPO's against rl_zoo3's published PPO); the results page shows the figure the same
     # command draws, one panel per env of the folders
     from sb3_reinforce.lab.compare.figures import plot_overview, published_table, to_markdown
+    from sb3_reinforce.lab.report import published_marker
 
     text = (REPO / page).read_text()
     commands = list(re.finditer(PUBLISHED_COMMAND.format(page=re.escape(page)), text))
@@ -87,7 +88,7 @@ def test_published_table_is_the_committed_results(page: str, monkeypatch: pytest
     for command in commands:
         folders = [Path(name) for name in command.group(1).split()]
         algo = command.group(3) or "reinforce"
-        marker = "published" if algo == "reinforce" else f"published:{algo}"
+        marker = published_marker(algo)
         block = re.search(rf"<!-- {marker} -->\n(.*?)<!-- /{marker} -->", text, re.DOTALL)
         assert block is not None
         published = pd.read_csv(command.group(2))

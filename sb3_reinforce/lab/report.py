@@ -23,7 +23,7 @@ from sb3_reinforce.lab.compare.figures import (
 from sb3_reinforce.lab.seed.summary import render_seed
 from sb3_reinforce.lab.stats import solve_threshold
 
-__all__ = ["build_parser", "main", "render", "update_readme", "write_between_markers"]
+__all__ = ["build_parser", "main", "published_marker", "render", "update_readme", "write_between_markers"]
 
 
 def render(out_dir: Path) -> str:
@@ -65,6 +65,11 @@ def write_between_markers(path: Path, marker: str, text: str) -> bool:
     if count:
         path.write_text(content)
     return bool(count)
+
+
+def published_marker(algo: str) -> str:
+    """The marker between which ``--published-into`` writes ``algo``'s published table (REINFORCE's: ``published``)."""
+    return "published" if algo == "reinforce" else f"published:{algo}"
 
 
 def update_readme(readme: Path, tables: dict[str, str]) -> list[str]:
@@ -114,7 +119,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--published-algo",
         default="reinforce",
         metavar="ALGO",
-        help="with --published: the algorithm of the comparison folders held against it, one of the folders' "
+        help="with --published: the algorithm of the comparison folders held against it, one rl_zoo3 knows "
         "(default: reinforce)",
     )
     parser.add_argument(
@@ -171,7 +176,7 @@ def main(argv: list[str] | None = None) -> None:
         published = to_markdown(published_table(comparisons, pd.read_csv(args.published), args.published_algo))
         print(f"## Published results\n\n{published}")
         if args.published_into is not None:
-            marker = "published" if args.published_algo == "reinforce" else f"published:{args.published_algo}"
+            marker = published_marker(args.published_algo)
             if not write_between_markers(args.published_into, marker, published):
                 parser.error(f"{args.published_into} has no <!-- {marker} --> and <!-- /{marker} --> markers")
             print(f"{args.published_into}: published table updated")
