@@ -323,6 +323,41 @@ def test_shell_scripts_parse() -> None:
         assert result.returncode == 0, f"{script}: {result.stderr}"
 
 
+def test_mujoco_table_writes_what_the_pages_show(tmp_path: Path) -> None:
+    # Issue 45's one command: on an env whose runs are all committed (HalfCheetah-v4: REINFORCE's ten, PPO's three)
+    # it trains nothing and writes every MuJoCo table the README and the results page show, and the figure, from the
+    # committed folders. The copies start with those tables emptied and without the figure.
+    import os
+    import re
+    import shutil
+
+    repo = BENCHMARKS.parent
+    copy = tmp_path / "repo"
+    shutil.copytree(repo / "benchmarks" / "published", copy / "benchmarks" / "published")
+    shutil.copytree(repo / "benchmarks" / "results" / "verify_mujoco", copy / "benchmarks" / "results" / "verify_mujoco")
+    shutil.copy(BENCHMARKS / "mujoco_table.sh", copy / "benchmarks")
+    (copy / "docs" / "images").mkdir(parents=True)
+    pages = {page: (repo / page).read_text() for page in ("README.md", "docs/results.md")}
+    emptied = {}
+    for page, text in pages.items():
+        emptied[page] = re.sub(r"(<!-- (published(?::\w+)?) -->\n).*?(<!-- /\2 -->)", r"\1\3", text, flags=re.DOTALL)
+        assert emptied[page].count("<!-- /published") == text.count("<!-- /published") and emptied[page] != text
+        (copy / page).write_text(emptied[page])
+    path = os.pathsep.join([str(Path(sys.executable).parent), os.environ["PATH"]])  # this venv's sb3-reinforce
+    environment = {**os.environ, "PATH": path, "ENVS": "HalfCheetah-v4"}
+    result = subprocess.run(
+        ["bash", str(copy / "benchmarks" / "mujoco_table.sh")], env=environment, capture_output=True, text=True
+    )
+    assert result.returncode == 0, result.stderr
+    assert "10 already finished, 0 resume from a checkpoint, 0 start from scratch" in result.stdout
+    assert "3 already finished, 0 resume from a checkpoint, 0 start from scratch" in result.stdout
+    for page, text in pages.items():
+        assert (copy / page).read_text() == text, f"{page}: the command does not write its MuJoCo tables"
+    assert (copy / "docs" / "images" / "mujoco.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    folder = Path("benchmarks") / "results" / "verify_mujoco" / "HalfCheetah-v4"
+    assert (copy / folder / "results.csv").read_text() == (repo / folder / "results.csv").read_text()
+
+
 def test_verify_carracing_tuned_asks_for_the_pick() -> None:
     # `run.sh reinforce` without the tuning study's pick stops with its usage line before anything runs
     script = BENCHMARKS / "results" / "verify_carracing_tuned" / "run.sh"
