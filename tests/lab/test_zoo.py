@@ -555,3 +555,19 @@ def test_entry_cites_its_verification(env_id: str) -> None:
     blocks = re.split(r"^(?=\S[^\n]*:\n)", CONFIGS["reinforce"].read_text(), flags=re.MULTILINE)
     block = next(block for block in blocks if block.startswith(f"{env_id}:\n"))
     assert re.search(r"benchmarks/results/verify_\w+/", block), block
+
+
+def test_tuned_entries_are_their_candidates() -> None:
+    # an entry picked by the MuJoCo tuning study holds exactly the candidate's hyperparameters for its env (the study's
+    # config is the one source: a hand-copied entry that drifted from what was tuned and verified fails here)
+    entries = yaml.safe_load(CONFIGS["reinforce"].read_text())
+    blocks = re.split(r"^(?=\S[^\n]*:\n)", CONFIGS["reinforce"].read_text(), flags=re.MULTILINE)
+    picked = {}
+    for block in blocks:
+        found = re.search(r"# Source: candidate (\w+) of the MuJoCo tuning study", block)
+        if found:
+            picked[block.split(":", 1)[0]] = found.group(1)
+    assert {"HalfCheetah-v4", "Hopper-v4", "Walker2d-v4"} <= set(picked)
+    for env_id, candidate in picked.items():
+        study = yaml.safe_load((REPO / "benchmarks" / "configs" / "mujoco_tuning" / f"{candidate}.yml").read_text())
+        assert entries[env_id] == study[env_id], f"{env_id}: not candidate {candidate}'s hyperparameters"
