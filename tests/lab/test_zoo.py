@@ -549,11 +549,16 @@ def test_cited_results_exist(name: str) -> None:
     assert [path for path in sorted(cited) if not (REPO / path).exists()] == []
 
 
+def entry_blocks() -> dict[str, str]:
+    """Each entry of the default file by env id: its text, comment lines included."""
+    blocks = re.split(r"^(?=\S[^\n]*:\n)", CONFIGS["reinforce"].read_text(), flags=re.MULTILINE)
+    return {block.split(":", 1)[0]: block for block in blocks if re.match(r"\S[^\n]*:\n", block)}
+
+
 @pytest.mark.parametrize("env_id", sorted(yaml.safe_load(CONFIGS["reinforce"].read_text())))
 def test_entry_cites_its_verification(env_id: str) -> None:
     # each entry of the default file says what it measured on fresh seeds, with the folder of that verification
-    blocks = re.split(r"^(?=\S[^\n]*:\n)", CONFIGS["reinforce"].read_text(), flags=re.MULTILINE)
-    block = next(block for block in blocks if block.startswith(f"{env_id}:\n"))
+    block = entry_blocks()[env_id]
     assert re.search(r"benchmarks/results/verify_\w+/", block), block
 
 
@@ -561,12 +566,11 @@ def test_tuned_entries_are_their_candidates() -> None:
     # an entry picked by the MuJoCo tuning study holds exactly the candidate's hyperparameters for its env (the study's
     # config is the one source: a hand-copied entry that drifted from what was tuned and verified fails here)
     entries = yaml.safe_load(CONFIGS["reinforce"].read_text())
-    blocks = re.split(r"^(?=\S[^\n]*:\n)", CONFIGS["reinforce"].read_text(), flags=re.MULTILINE)
     picked = {}
-    for block in blocks:
+    for env_id, block in entry_blocks().items():
         found = re.search(r"# Source: candidate (\w+) of the MuJoCo tuning study", block)
         if found:
-            picked[block.split(":", 1)[0]] = found.group(1)
+            picked[env_id] = found.group(1)
     assert {"HalfCheetah-v4", "Hopper-v4", "Walker2d-v4"} <= set(picked)
     for env_id, candidate in picked.items():
         study = yaml.safe_load((REPO / "benchmarks" / "configs" / "mujoco_tuning" / f"{candidate}.yml").read_text())
