@@ -22,6 +22,7 @@ from sb3_reinforce.lab.compare.experiment import EVAL_SEED_OFFSET, build_run, kn
 from sb3_reinforce.lab.compare.figures import (
     BAND_LABEL,
     PER_RUN_DIR,
+    best_mean,
     load_summaries,
     overview_table,
     plot_learning_curves,
@@ -457,6 +458,22 @@ def _legend_texts(fig: Figure) -> list[str]:
     legend = fig.axes[0].get_legend()
     assert legend is not None
     return [text.get_text() for text in legend.get_texts()]
+
+
+def test_learning_curves_plot_the_points_every_seed_reached(tmp_path: Path) -> None:
+    # seed 1's run ends past the budget and adds a 6th evaluation: one seed is no mean over seeds, so the curve stops
+    # at the last point both seeds reached, the points the metric (best_mean) reads
+    rows = [
+        dict(algo="reinforce", seed=seed, eval_index=i, steps=10_000 * i, mean_return=float(i))
+        for seed in (0, 1)
+        for i in range(5)
+    ]
+    rows.append(dict(algo="reinforce", seed=1, eval_index=5, steps=50_100, mean_return=1000.0))
+    fig = plot_learning_curves(pd.DataFrame(rows), None, tmp_path / "c.png", "t")
+    line = fig.axes[0].lines[0]
+    assert list(line.get_xdata()) == [0, 10_000, 20_000, 30_000, 40_000]
+    assert max(line.get_ydata()) == 4.0
+    assert best_mean(pd.DataFrame(rows), "mean_return") == (4.0, 0.0, 4)
 
 
 def test_learning_curve_plots_name_their_band_and_separate_thousands(tmp_path: Path) -> None:

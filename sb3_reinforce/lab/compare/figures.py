@@ -331,7 +331,13 @@ def _seeds_label(name: str, n_seeds: int) -> str:
 
 
 def _curves(results: pd.DataFrame) -> pd.DataFrame:
-    """``results.csv``'s rows for seaborn: steps as the median over seeds (so points line up), display names."""
+    """
+    ``results.csv``'s rows for seaborn: the evaluation points every seed of the algorithm reached (those
+    :func:`best_mean` reads; a run that ends a few steps past its budget adds one more evaluation than another),
+    steps as the median over seeds (so points line up), display names.
+    """
+    seeds = results.groupby("algo")["seed"].transform("nunique")
+    results = results[results.groupby(["algo", "eval_index"])["seed"].transform("nunique") == seeds]
     steps = results.groupby(["algo", "eval_index"])["steps"].transform("median")
     return results.assign(steps=steps, algorithm=results["algo"].map(_display_name))
 
