@@ -7,9 +7,10 @@ the evaluations so far: each (candidate, env)'s figures over the tuning seeds, a
 A candidate's score on an env is Tianshou's metric over seeds 100 and 101 (the best mean over seeds of the
 deterministic evaluations, :func:`~sb3_reinforce.lab.compare.figures.best_mean`); the highest wins, except that two
 within 2% of the env's threshold's magnitude are ranked by the mean over the two seeds of their last five evaluations
-(2.8M to 3M steps). An env is decided once all three candidates reached 3M steps on both seeds, except that an env
-of ``STAGE_2`` whose stage-1 pick stays below its threshold is decided by the same rule over stage 1's and stage 2's
-candidates together, once those have reached 3M steps too.
+(2.8M to 3M steps), and a tie on both goes to the first in ``CANDIDATES``' order. An env is decided once all three
+candidates reached 3M steps on both seeds, except that an env of ``STAGE_2`` whose stage-1 pick stays below its
+threshold is decided by the same rule over stage 1's and stage 2's candidates together, once those have reached 3M
+steps too.
 """
 
 import argparse
@@ -84,12 +85,13 @@ def _best(scores: pd.DataFrame, env: str, candidates: tuple[str, ...]) -> str | 
     rows = scores[(scores["env"] == env) & scores["candidate"].isin(candidates)]
     if set(rows["candidate"]) != set(candidates) or not rows["finished"].all():
         return None
-    ranked = rows.sort_values("best mean", ascending=False)
+    rows = rows.set_index("candidate").loc[list(candidates)].reset_index()  # the candidates' order: a full tie's pick
+    ranked = rows.sort_values("best mean", ascending=False, kind="stable")
     best, second = ranked.iloc[0], ranked.iloc[1] if len(ranked) > 1 else None
     tie = TIE_SHARE * abs(float(best["threshold"]))
     if second is not None and best["best mean"] - second["best mean"] <= tie:
         contenders = ranked[ranked["best mean"] >= best["best mean"] - tie]
-        return str(contenders.sort_values("last 5 mean", ascending=False).iloc[0]["candidate"])
+        return str(contenders.sort_values("last 5 mean", ascending=False, kind="stable").iloc[0]["candidate"])
     return str(best["candidate"])
 
 

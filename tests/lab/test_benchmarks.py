@@ -396,6 +396,13 @@ def test_mujoco_tuning_rule(tmp_path: Path) -> None:
     assert tuning.pick(tuning.candidate_scores(tmp_path), "Hopper-v4") == "b_value4_lr3"
     run("b_value4_lr3", 100, [0, 900, *[900] * 5])  # b's best mean 950: no tie, a's 1,000 wins
     assert tuning.pick(tuning.candidate_scores(tmp_path), "Hopper-v4") == "a_value4"
+    # a tie on both figures (every candidate at a task's maximum, as InvertedPendulum's 1,000) goes to the candidates'
+    # order, a_value4 first, whatever the order of the scores' rows
+    for candidate in tuning.CANDIDATES:
+        for seed in tuning.SEEDS:
+            run(candidate, seed, [0, *[1000] * 6])
+    scores = tuning.candidate_scores(tmp_path)
+    assert tuning.pick(scores, "Hopper-v4") == tuning.pick(scores.iloc[::-1], "Hopper-v4") == "a_value4"
 
 
 def test_mujoco_tuning_stage_2(tmp_path: Path) -> None:
