@@ -23,6 +23,7 @@ from sb3_reinforce.lab.compare.figures import (
     BAND_LABEL,
     PER_RUN_DIR,
     best_mean,
+    every_seed_reached,
     load_summaries,
     overview_table,
     plot_learning_curves,
@@ -474,6 +475,12 @@ def test_learning_curves_plot_the_points_every_seed_reached(tmp_path: Path) -> N
     assert list(line.get_xdata()) == [0, 10_000, 20_000, 30_000, 40_000]
     assert max(line.get_ydata()) == 4.0
     assert best_mean(pd.DataFrame(rows), "mean_return") == (4.0, 0.0, 4)
+    # One algorithm's rows without their algo column (benchmarks/mujoco_tuning.py's frames) read the same
+    assert best_mean(pd.DataFrame(rows).drop(columns="algo"), "mean_return") == (4.0, 0.0, 4)
+    # Each algorithm by its own seeds: PPO's single seed keeps all its points
+    rows += [dict(algo="ppo", seed=0, eval_index=i, steps=10_000 * i, mean_return=0.0) for i in range(7)]
+    kept = every_seed_reached(pd.DataFrame(rows)).groupby("algo")["eval_index"].max()
+    assert kept.to_dict() == {"ppo": 6, "reinforce": 4}
 
 
 def test_learning_curve_plots_name_their_band_and_separate_thousands(tmp_path: Path) -> None:

@@ -118,6 +118,18 @@ def learning_curves(algo_df: pd.DataFrame, column: str = "mean_return") -> tuple
     return algo_df.groupby("eval_index")["steps"].median().loc[table.index].to_numpy(), table
 
 
+def every_seed_reached(results: pd.DataFrame) -> pd.DataFrame:
+    """
+    The rows of the evaluation points every seed of their algorithm reached: what the metric reads and the curves
+    draw (a run that ends a few steps past its budget has one evaluation more than another; a running one fewer).
+
+    :param results: Evaluations of one algorithm, or of several told apart by an ``algo`` column
+    """
+    algos = results["algo"] if "algo" in results else pd.Series("", index=results.index)
+    seeds = results.groupby(algos)["seed"].transform("nunique")
+    return results[results.groupby([algos, results["eval_index"]])["seed"].transform("nunique") == seeds]
+
+
 def best_mean(algo_df: pd.DataFrame, column: str) -> tuple[float, float, int]:
     """
     Tianshou's metric (:func:`~sb3_reinforce.lab.stats.best_mean_over_seeds`) over the points every seed reached.
@@ -126,7 +138,7 @@ def best_mean(algo_df: pd.DataFrame, column: str) -> tuple[float, float, int]:
     :param column: ``"mean_return"`` (deterministic) or ``"mean_return_stochastic"``
     :return: (the best mean over seeds, the standard deviation over seeds there, the index of that point)
     """
-    return best_mean_over_seeds(learning_curves(algo_df, column)[1].dropna().to_numpy().T)
+    return best_mean_over_seeds(learning_curves(every_seed_reached(algo_df), column)[1].to_numpy().T)
 
 
 def _shown(figure: tuple[float, float, int]) -> str:
@@ -332,12 +344,10 @@ def _seeds_label(name: str, n_seeds: int) -> str:
 
 def _curves(results: pd.DataFrame) -> pd.DataFrame:
     """
-    ``results.csv``'s rows for seaborn: the evaluation points every seed of the algorithm reached (those
-    :func:`best_mean` reads; a run that ends a few steps past its budget adds one more evaluation than another),
-    steps as the median over seeds (so points line up), display names.
+    ``results.csv``'s rows for seaborn: :func:`every_seed_reached`'s points, steps as their median over seeds (so
+    points line up), display names.
     """
-    seeds = results.groupby("algo")["seed"].transform("nunique")
-    results = results[results.groupby(["algo", "eval_index"])["seed"].transform("nunique") == seeds]
+    results = every_seed_reached(results)
     steps = results.groupby(["algo", "eval_index"])["steps"].transform("median")
     return results.assign(steps=steps, algorithm=results["algo"].map(_display_name))
 
