@@ -10,7 +10,9 @@ within 2% of the env's threshold's magnitude are ranked by the mean over the two
 (2.8M to 3M steps), and a tie on both goes to the first in ``CANDIDATES``' order. An env is decided once all three
 candidates reached 3M steps on both seeds, except that an env of ``STAGE_2`` whose stage-1 pick stays below its
 threshold is decided by the same rule over stage 1's and stage 2's candidates together, once those have reached 3M
-steps too.
+steps too. Where the untrained policy's deterministic evaluation (at step 0) is already at or above the threshold on
+both seeds (Reacher-v4, Ant-v4), that figure cannot say whether a pick stays below the threshold: there the stage-2
+trigger, and a stage 2's pick, read the sampled-action evaluations instead.
 """
 
 import argparse
@@ -34,8 +36,9 @@ LAST = 5
 
 def candidate_scores(study: Path) -> pd.DataFrame:
     """
-    One row per (env, candidate) with runs: the steps each seed reached, whether both finished, the best mean over
-    seeds of the deterministic and of the sampled-action evaluations, and the mean of the last five evaluations.
+    One row per (env, candidate) with runs: the steps each seed reached, whether both finished, the lower of the seeds'
+    deterministic evaluations at step 0 (the untrained policy's), the best mean over seeds of the deterministic and of
+    the sampled-action evaluations, and the mean over seeds of the last five evaluations, deterministic and sampled.
     """
     thresholds = _thresholds(study)
     rows = []
@@ -49,9 +52,11 @@ def candidate_scores(study: Path) -> pd.DataFrame:
             row: dict[str, object] = {"env": folder.name, "candidate": candidate, "threshold": thresholds.get(folder.name)}
             row["steps"] = " / ".join(f"{int(run['steps'].max()):,}" for run in runs)
             row["finished"] = len(runs) == len(SEEDS) and all(run["steps"].max() >= BUDGET for run in runs)
+            row["untrained"] = min(float(run.loc[run["steps"] == 0, "mean_return"].min()) for run in runs)
             row["best mean"] = best_mean(frame, "mean_return")[0]
             row["best mean, sampled"] = best_mean(frame, "mean_return_stochastic")[0]
             row["last 5 mean"] = float(np.mean([run["mean_return"].iloc[-LAST:].mean() for run in runs]))
+            row["last 5 mean, sampled"] = float(np.mean([run["mean_return_stochastic"].iloc[-LAST:].mean() for run in runs]))
             rows.append(row)
     return pd.DataFrame(rows)
 
@@ -68,7 +73,8 @@ def _thresholds(study: Path) -> dict[str, float]:
 def pick(scores: pd.DataFrame, env: str) -> str | None:
     """
     The rule's pick on ``env``, or None until every candidate it needs finished on both seeds: stage 1's, and
-    stage 2's too where the env has one and stage 1's pick stays below the threshold.
+    stage 2's too where the env has one and stage 1's pick stays below the threshold (by the sampled-action figure
+    where the untrained policy's deterministic one already reaches the threshold, which then also decides stage 2).
 
     :param scores: :func:`candidate_scores`'s table
     :param env: The env id
@@ -77,21 +83,25 @@ def pick(scores: pd.DataFrame, env: str) -> str | None:
     if chosen is None or env not in STAGE_2:
         return chosen
     row = scores[(scores["env"] == env) & (scores["candidate"] == chosen)].iloc[0]
-    return chosen if row["best mean"] >= row["threshold"] else _best(scores, env, CANDIDATES + STAGE_2[env])
+    sampled = bool(row["untrained"] >= row["threshold"])
+    below = row["best mean, sampled" if sampled else "best mean"] < row["threshold"]
+    return _best(scores, env, CANDIDATES + STAGE_2[env], sampled) if below else chosen
 
 
-def _best(scores: pd.DataFrame, env: str, candidates: tuple[str, ...]) -> str | None:
-    """The rule over ``candidates`` on ``env`` (None until all of them finished on both seeds)."""
+def _best(scores: pd.DataFrame, env: str, candidates: tuple[str, ...], sampled: bool = False) -> str | None:
+    """The rule over ``candidates`` on ``env``, on the deterministic or the sampled-action figures (None until all of
+    them finished on both seeds)."""
     rows = scores[(scores["env"] == env) & scores["candidate"].isin(candidates)]
     if set(rows["candidate"]) != set(candidates) or not rows["finished"].all():
         return None
+    best_mean, last = ("best mean, sampled", "last 5 mean, sampled") if sampled else ("best mean", "last 5 mean")
     rows = rows.set_index("candidate").loc[list(candidates)].reset_index()  # the candidates' order: a full tie's pick
-    ranked = rows.sort_values("best mean", ascending=False, kind="stable")
+    ranked = rows.sort_values(best_mean, ascending=False, kind="stable")
     best, second = ranked.iloc[0], ranked.iloc[1] if len(ranked) > 1 else None
     tie = TIE_SHARE * abs(float(best["threshold"]))
-    if second is not None and best["best mean"] - second["best mean"] <= tie:
-        contenders = ranked[ranked["best mean"] >= best["best mean"] - tie]
-        return str(contenders.sort_values("last 5 mean", ascending=False, kind="stable").iloc[0]["candidate"])
+    if second is not None and best[best_mean] - second[best_mean] <= tie:
+        contenders = ranked[ranked[best_mean] >= best[best_mean] - tie]
+        return str(contenders.sort_values(last, ascending=False, kind="stable").iloc[0]["candidate"])
     return str(best["candidate"])
 
 

@@ -432,3 +432,38 @@ def test_mujoco_tuning_stage_2(tmp_path: Path) -> None:
     for env, candidates in tuning.STAGE_2.items():
         for candidate in candidates:
             assert list(yaml.safe_load((configs / f"{candidate}.yml").read_text())) == [env]
+
+
+def test_mujoco_tuning_stage_2_reads_sampled_actions_where_the_untrained_policy_reaches_the_threshold(
+    tmp_path: Path,
+) -> None:
+    # Where the untrained policy's deterministic evaluation is already at or above the threshold on both seeds (Ant-v4's
+    # 1,000 against 474.9), the stage-2 trigger and stage 2's pick read the sampled-action figures; stage 1's pick
+    # still reads the deterministic one
+    tuning = load("mujoco_tuning")
+
+    def run(candidate: str, best: float, sampled: float, untrained: tuple[float, float] = (60.0, 60.0)) -> None:
+        folder = tmp_path / candidate / "Swimmer-v4"
+        (folder / "per_run").mkdir(parents=True, exist_ok=True)
+        (folder / "comparison.json").write_text('{"env": "Swimmer-v4", "threshold": 51}')
+        for seed, start in zip((100, 101), untrained, strict=True):
+            frame = {"seed": seed, "eval_index": range(3), "steps": [0, 1_500_000, 3_000_000]}
+            frame["mean_return"] = [start, best, 0]
+            frame["mean_return_stochastic"] = [-40, sampled, sampled]
+            pd.DataFrame(frame).to_csv(folder / "per_run" / f"reinforce_seed{seed}.csv", index=False)
+
+    for candidate, best, sampled in (("a_value4", 70, 30), ("b_value4_lr3", 65, 45), ("c_value8", 55, 20)):
+        run(candidate, best, sampled)
+    scores = tuning.candidate_scores(tmp_path)
+    assert scores.set_index("candidate").loc["a_value4", "untrained"] == 60.0
+    # a is stage 1's pick (70, deterministic) and at or above 51 by that figure, but 30 with sampled actions: stage 2
+    assert tuning._best(scores, "Swimmer-v4", tuning.CANDIDATES) == "a_value4"
+    assert tuning.pick(scores, "Swimmer-v4") is None
+    stage_2 = tuning.STAGE_2["Swimmer-v4"]
+    for candidate, best, sampled in zip(stage_2, (60, 90, 50), (80, 40, 70), strict=True):
+        run(candidate, best, sampled)
+    # over the six by the sampled figure: stage 2's first (80); the deterministic figure would give its second (90)
+    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4") == stage_2[0]
+    # the untrained policy below the threshold on one seed: the deterministic figure decides, and a's 70 stands
+    run("a_value4", 70, 30, untrained=(60.0, 40.0))
+    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4") == "a_value4"
