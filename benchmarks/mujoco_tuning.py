@@ -27,7 +27,10 @@ STUDY = Path(__file__).parent / "results" / "mujoco_tuning"
 CANDIDATES = ("a_value4", "b_value4_lr3", "c_value8")
 #: Stage 2 (the README's, written before its runs): its candidates per env, run only if the env's stage-1 pick stays
 #: below the threshold on the tuning seeds
-STAGE_2 = {"Swimmer-v4": ("d_gamma999", "e_gamma9999", "f_gamma9999_lr3")}
+STAGE_2 = {
+    "Swimmer-v4": ("d_gamma999", "e_gamma9999", "f_gamma9999_lr3"),
+    "Ant-v4": ("g_logstd1", "h_logstd1_lr3", "i_logstd15"),
+}
 SEEDS = (100, 101)
 BUDGET = 3_000_000
 TIE_SHARE = 0.02
