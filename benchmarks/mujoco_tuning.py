@@ -11,7 +11,7 @@ within 2% of the env's threshold's magnitude are ranked by the mean over the two
 candidates reached 3M steps on both seeds, except that an env of ``STAGE_2`` whose stage-1 pick stays below its
 threshold is decided by the same rule over stage 1's and stage 2's candidates together, once those have reached 3M
 steps too. Where the untrained policy's deterministic evaluation (at step 0) is already at or above the threshold on
-both seeds (Reacher-v4, Ant-v4), that figure cannot say whether a pick stays below the threshold: there the stage-2
+both seeds (Ant-v4), that figure cannot say whether a pick stays below the threshold: there the stage-2
 trigger, and a stage 2's pick, read the sampled-action evaluations instead.
 """
 
