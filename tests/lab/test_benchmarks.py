@@ -3,6 +3,7 @@
 import csv
 import importlib.util
 import math
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -406,9 +407,13 @@ def test_mujoco_tuning_rule(tmp_path: Path) -> None:
 
 
 def test_mujoco_tuning_stage_2(tmp_path: Path) -> None:
-    # Swimmer-v4's stage 2: needed only when stage 1's pick stays below the threshold (51); then the rule runs over
-    # all six candidates, and nothing is decided until stage 2's have reached 3M steps too
+    # Swimmer-v4's stage 2 as first written: needed only when stage 1's pick stays below the threshold (51); then the
+    # rule runs over all six candidates, and nothing is decided until stage 2's have reached 3M steps too. (Swimmer-v4
+    # is now in REOPENED, tested below: here the trigger on its own, with no env reopened.)
     tuning = load("mujoco_tuning")
+
+    def pick() -> str | None:
+        return tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4", reopened=())
 
     def run(candidate: str, best: float) -> None:
         folder = tmp_path / candidate / "Swimmer-v4"
@@ -421,12 +426,22 @@ def test_mujoco_tuning_stage_2(tmp_path: Path) -> None:
 
     for candidate, best in (("a_value4", 30.0), ("b_value4_lr3", 40.0), ("c_value8", 20.0)):
         run(candidate, best)
-    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4") is None  # 40 < 51: stage 2 has not run
+    assert pick() is None  # 40 < 51: stage 2 has not run
     for candidate, best in zip(tuning.STAGE_2["Swimmer-v4"], (35.0, 120.0, 90.0), strict=True):
         run(candidate, best)
-    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4") == "e_gamma9999"
+    assert pick() == "e_gamma9999"
     run("b_value4_lr3", 60.0)  # stage 1's pick at or above 51: stage 2 is not consulted
-    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4") == "b_value4_lr3"
+    assert pick() == "b_value4_lr3"
+    # reopened (Swimmer-v4's verification stayed below 51): stage 2 is consulted whatever stage 1's pick scored
+    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4", reopened={"Swimmer-v4"}) == "e_gamma9999"
+    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4", reopened={"Ant-v4"}) == "b_value4_lr3"
+    for candidate in tuning.STAGE_2["Swimmer-v4"]:
+        run(candidate, 50.0)  # every stage 2 candidate below stage 1's pick: the pick stays
+    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4", reopened={"Swimmer-v4"}) == "b_value4_lr3"
+    # the default is the README's record: Swimmer-v4 only, and only envs with a stage 2 can be reopened
+    assert tuning.REOPENED == {"Swimmer-v4"} and tuning.REOPENED <= set(tuning.STAGE_2)
+    shutil.rmtree(tmp_path / "d_gamma999")  # a stage 2 candidate without runs: a reopened env is undecided
+    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4") is None
     # every stage 2 candidate has its config, with an entry for its env only
     configs = BENCHMARKS / "configs" / "mujoco_tuning"
     for env, candidates in tuning.STAGE_2.items():
@@ -458,12 +473,13 @@ def test_mujoco_tuning_stage_2_reads_sampled_actions_where_the_untrained_policy_
     assert scores.set_index("candidate").loc["a_value4", "untrained"] == 60.0
     # a is stage 1's pick (70, deterministic) and at or above 51 by that figure, but 30 with sampled actions: stage 2
     assert tuning._best(scores, "Swimmer-v4", tuning.CANDIDATES) == "a_value4"
-    assert tuning.pick(scores, "Swimmer-v4") is None
+    assert tuning.pick(scores, "Swimmer-v4", reopened=()) is None
     stage_2 = tuning.STAGE_2["Swimmer-v4"]
     for candidate, best, sampled in zip(stage_2, (60, 90, 50), (80, 40, 70), strict=True):
         run(candidate, best, sampled)
     # over the six by the sampled figure: stage 2's first (80); the deterministic figure would give its second (90)
-    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4") == stage_2[0]
-    # the untrained policy below the threshold on one seed: the deterministic figure decides, and a's 70 stands
+    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4", reopened=()) == stage_2[0]
+    # the untrained policy below the threshold on one seed: the deterministic figure decides, and a's 70 stands (with
+    # no env reopened: Swimmer-v4 stands for any env with a stage 2 here)
     run("a_value4", 70, 30, untrained=(60.0, 40.0))
-    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4") == "a_value4"
+    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4", reopened=()) == "a_value4"
