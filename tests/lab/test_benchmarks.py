@@ -6,6 +6,7 @@ import math
 import shutil
 import subprocess
 import sys
+from collections.abc import Collection
 from pathlib import Path
 from types import ModuleType
 
@@ -412,8 +413,8 @@ def test_mujoco_tuning_stage_2(tmp_path: Path) -> None:
     # is now in REOPENED, tested below: here the trigger on its own, with no env reopened.)
     tuning = load("mujoco_tuning")
 
-    def pick() -> str | None:
-        return tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4", reopened=())
+    def pick(reopened: Collection[str] = ()) -> str | None:
+        return tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4", reopened)
 
     def run(candidate: str, best: float) -> None:
         folder = tmp_path / candidate / "Swimmer-v4"
@@ -433,15 +434,15 @@ def test_mujoco_tuning_stage_2(tmp_path: Path) -> None:
     run("b_value4_lr3", 60.0)  # stage 1's pick at or above 51: stage 2 is not consulted
     assert pick() == "b_value4_lr3"
     # reopened (Swimmer-v4's verification stayed below 51): stage 2 is consulted whatever stage 1's pick scored
-    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4", reopened={"Swimmer-v4"}) == "e_gamma9999"
-    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4", reopened={"Ant-v4"}) == "b_value4_lr3"
+    assert pick({"Swimmer-v4"}) == "e_gamma9999"
+    assert pick({"Ant-v4"}) == "b_value4_lr3"
     for candidate in tuning.STAGE_2["Swimmer-v4"]:
         run(candidate, 50.0)  # every stage 2 candidate below stage 1's pick: the pick stays
-    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4", reopened={"Swimmer-v4"}) == "b_value4_lr3"
+    assert pick({"Swimmer-v4"}) == "b_value4_lr3"
     # the default is the README's record: Swimmer-v4 only, and only envs with a stage 2 can be reopened
     assert tuning.REOPENED == {"Swimmer-v4"} and tuning.REOPENED <= set(tuning.STAGE_2)
     shutil.rmtree(tmp_path / "d_gamma999")  # a stage 2 candidate without runs: a reopened env is undecided
-    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4") is None
+    assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4") is None  # the default: REOPENED
     # every stage 2 candidate has its config, with an entry for its env only
     configs = BENCHMARKS / "configs" / "mujoco_tuning"
     for env, candidates in tuning.STAGE_2.items():
