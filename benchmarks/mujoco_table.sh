@@ -21,16 +21,8 @@ cd "$(dirname "$0")/.."
 published=benchmarks/published/reinforce_mujoco.csv
 extra=("$@")
 # env -> the higher published number at 3M (Tianshou's REINFORCE, Spinning Up's VPG), read off the CSV
-mapfile -t targets < <(python - "$published" <<'PY'
-import sys
-
-import pandas as pd
-
-table = pd.read_csv(sys.argv[1])
-for env_id, best in table[table["budget"] == 3_000_000].groupby("env_id", sort=False)["mean"].max().items():
-    print(env_id, best)
-PY
-)
+thresholds=$(python benchmarks/mujoco_thresholds.py)   # set -e stops here if the table cannot be read
+mapfile -t targets <<<"$thresholds"
 ppo_envs=" ${PPO_ENVS-HalfCheetah-v4 Hopper-v4} "
 run_env() {
     sb3-reinforce compare --env "$1" --algos reinforce --seeds 10 --first-seed 1000 --budget 3000000 \

@@ -11,6 +11,7 @@ from pathlib import Path
 from types import ModuleType
 
 import pandas as pd
+import pytest
 import torch as th
 import yaml
 
@@ -338,6 +339,7 @@ def test_mujoco_table_writes_what_the_pages_show(tmp_path: Path) -> None:
     shutil.copytree(repo / "benchmarks" / "published", copy / "benchmarks" / "published")
     shutil.copytree(repo / "benchmarks" / "results" / "verify_mujoco", copy / "benchmarks" / "results" / "verify_mujoco")
     shutil.copy(BENCHMARKS / "mujoco_table.sh", copy / "benchmarks")
+    shutil.copy(BENCHMARKS / "mujoco_thresholds.py", copy / "benchmarks")
     (copy / "docs" / "images").mkdir(parents=True)
     pages = {page: (repo / page).read_text() for page in ("README.md", "docs/results.md")}
     emptied = {}
@@ -358,6 +360,34 @@ def test_mujoco_table_writes_what_the_pages_show(tmp_path: Path) -> None:
     assert (copy / "docs" / "images" / "mujoco.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     folder = Path("benchmarks") / "results" / "verify_mujoco" / "HalfCheetah-v4"
     assert (copy / folder / "results.csv").read_text() == (repo / folder / "results.csv").read_text()
+
+
+def test_mujoco_thresholds_are_the_higher_published_number_at_3m(capsys: pytest.CaptureFixture[str]) -> None:
+    # One source for the thresholds of mujoco_table.sh and the tuning study's run.sh: the published CSV
+    thresholds = load("mujoco_thresholds")
+    table = thresholds.thresholds()
+    assert len(table) == 9
+    assert table["Hopper-v4"] == 800  # Spinning Up's VPG, above Tianshou's 395.8
+    assert table["HalfCheetah-v4"] == 884.0  # Tianshou's, above Spinning Up's ~600
+    assert table["Humanoid-v4"] == 438.2  # Tianshou's only
+    thresholds.main(["Swimmer-v4", "Reacher-v4"])
+    assert capsys.readouterr().out == "Swimmer-v4 51.0\nReacher-v4 -10.5\n"
+    with pytest.raises(SystemExit, match="no published number for Pong-v4: the table has Ant-v4, HalfCheetah-v4"):
+        thresholds.main(["Pong-v4"])
+
+
+def test_mujoco_tuning_run_stops_on_an_env_without_a_published_number() -> None:
+    # run.sh names the env it cannot score before any training starts
+    import os
+
+    script = BENCHMARKS / "results" / "mujoco_tuning" / "run.sh"
+    path = os.pathsep.join([str(Path(sys.executable).parent), os.environ["PATH"]])  # this venv's python
+    result = subprocess.run(
+        ["bash", str(script), "a_value4", "Pong-v4"], env={**os.environ, "PATH": path}, capture_output=True, text=True
+    )
+    assert result.returncode != 0
+    assert "no published number for Pong-v4" in result.stderr
+    assert "sb3-reinforce compare" not in result.stdout
 
 
 def test_verify_carracing_tuned_asks_for_the_pick() -> None:

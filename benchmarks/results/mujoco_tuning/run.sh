@@ -6,12 +6,12 @@
 cd "$(dirname "$0")/../../.." || exit 1
 config=${1:?usage: run.sh CONFIG ENV}
 env_id=${2:?usage: run.sh CONFIG ENV}
-# The solve threshold is the published number to beat (README.md): the higher of Tianshou's REINFORCE at 3M
-# and Spinning Up's VPG at 3M, so "steps to reach" reads when a seed first matched both.
-declare -A target=([Ant-v4]=474.9 [HalfCheetah-v4]=884.0 [Hopper-v4]=800 [Walker2d-v4]=460 [Swimmer-v4]=51
-    [Humanoid-v4]=438.2 [Reacher-v4]=-10.5 [InvertedPendulum-v4]=999.2 [InvertedDoublePendulum-v4]=1059.7)
+# The solve threshold is the published number to beat (README.md), read off benchmarks/published/reinforce_mujoco.csv
+# by benchmarks/mujoco_thresholds.py as mujoco_table.sh reads it: the higher of Tianshou's REINFORCE at 3M and Spinning
+# Up's VPG at 3M, so "steps to reach" reads when a seed first matched both.
+read -r _ threshold < <(python benchmarks/mujoco_thresholds.py "$env_id") || exit 1
 args=(--env "$env_id" --algos reinforce --seeds 2 --first-seed 100 --budget 3000000 --eval-freq 50000
-    --eval-episodes 10 --threshold "${target[$env_id]:?unknown env $env_id}" --workers "${WORKERS:-2}"
+    --eval-episodes 10 --threshold "$threshold" --workers "${WORKERS:-2}"
     --out "benchmarks/results/mujoco_tuning/$config/$env_id" --no-progress
     --reinforce-config "benchmarks/configs/mujoco_tuning/$config.yml")
 echo "\$ sb3-reinforce compare ${args[*]}"
