@@ -10,9 +10,10 @@
 #   ENVS="HalfCheetah-v4 Hopper-v4" bash benchmarks/mujoco_table.sh  # some envs only (the table keeps the others')
 #   PPO_ENVS="" bash benchmarks/mujoco_table.sh                     # without PPO's runs
 #
-# PPO beside it (issue 45, item 4): on each env of PPO_ENVS (default HalfCheetah-v4 and Hopper-v4) that is selected,
-# rl_zoo3's PPO entry on seeds 1000-1002 at its own zoo budget, same evaluation, into the same folder (the learning
-# curves then show both; the published table reads REINFORCE's runs only).
+# PPO beside it (issue 45, item 4): on each env of PPO_ENVS that is selected (default: the envs rl-baselines3-zoo
+# publishes a PPO score for, benchmarks/published/ppo_zoo_mujoco.csv), rl_zoo3's PPO entry on seeds 1000-1002 at its
+# own zoo budget, same evaluation, into the same folder (the learning curves then show both; the published table
+# reads REINFORCE's runs only).
 #
 # Each env's folder is benchmarks/results/verify_mujoco/ENV/; its solve threshold (the "steps to reach" column) is
 # the higher published number at 3M. Run from the repository's root with the compare and mujoco extras installed.
@@ -23,7 +24,8 @@ extra=("$@")
 # env -> the higher published number at 3M (Tianshou's REINFORCE, Spinning Up's VPG), read off the CSV
 thresholds=$(python benchmarks/mujoco_thresholds.py)   # set -e stops here if the table cannot be read
 mapfile -t targets <<<"$thresholds"
-ppo_envs=" ${PPO_ENVS-HalfCheetah-v4 Hopper-v4} "
+ppo_published=benchmarks/published/ppo_zoo_mujoco.csv
+ppo_envs=" ${PPO_ENVS-$(tail -n +2 "$ppo_published" | cut -d, -f1 | tr '\n' ' ')} "
 run_env() {
     sb3-reinforce compare --env "$1" --algos reinforce --seeds 10 --first-seed 1000 --budget 3000000 \
         --eval-freq 50000 --eval-episodes 10 --threshold "$2" --no-progress \
@@ -49,5 +51,5 @@ mapfile -t folders < <(find benchmarks/results/verify_mujoco -mindepth 2 -maxdep
 # every table and figure the README and the results page show, from the committed runs (tests/test_docs.py checks them)
 sb3-reinforce report "${folders[@]}" --published "$published" --published-into README.md
 sb3-reinforce report "${folders[@]}" --published "$published" --published-into docs/results.md --figure docs/images/mujoco.png
-sb3-reinforce report "${folders[@]}" --published benchmarks/published/ppo_zoo_mujoco.csv --published-algo ppo \
+sb3-reinforce report "${folders[@]}" --published "$ppo_published" --published-algo ppo \
     --published-into docs/results.md
