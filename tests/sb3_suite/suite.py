@@ -40,7 +40,10 @@ DIFFERENCES_FILE = HERE / "differences.md"
 VARIANTS: dict[str, str | None] = {"no-baseline": None, "value-baseline": "value"}
 #: Variant column of the difference list -> the variants an entry applies to
 BASELINE_COLUMN = {"both": tuple(VARIANTS), "none": ("no-baseline",), "value": ("value-baseline",)}
-OUTCOMES = ("xfail", "not run")
+OUTCOMES = ("xfail", "rerun", "not run")
+#: A test of wall-clock throughput, failed because the machine was busy, runs again this many times, this many
+#: seconds apart (pytest-rerunfailures' ``flaky`` marker); only its ``AssertionError`` is retried, never an exception
+RERUNS, RERUNS_DELAY_S = 2, 10
 
 #: The collector records here, per variant, the ids of SB3's tests it collected (before any -k/-m selection)
 collected_ids: pytest.StashKey[dict[str, set[str]]] = pytest.StashKey()
@@ -59,7 +62,7 @@ class Difference:
 
     pattern: str  # "test_file.py::test_name[params]", where * matches any characters
     variants: tuple[str, ...]
-    outcome: str  # "xfail" (strict) or "not run"
+    outcome: str  # "xfail" (strict), "rerun" (on a failed assertion) or "not run"
     reason: str
 
     def matches(self, test_id: str, variant: str) -> bool:
@@ -70,7 +73,7 @@ class Difference:
 def read_differences(path: pathlib.Path = DIFFERENCES_FILE) -> list[Difference]:
     """
     The rows of the Markdown tables of ``path`` whose first cell is a backquoted test id:
-    ``| `test_file.py::test_name[params]` | both/none/value | xfail/not run | reason |``.
+    ``| `test_file.py::test_name[params]` | both/none/value | xfail/rerun/not run | reason |``.
     """
     differences = []
     for number, line in enumerate(path.read_text().splitlines(), start=1):
@@ -211,6 +214,10 @@ class SB3TestModule(pytest.Module):
                 if difference.matches(test_id, self.variant):
                     if difference.outcome == "xfail":
                         node.add_marker(pytest.mark.xfail(strict=True, reason=difference.reason))
+                    elif difference.outcome == "rerun":
+                        node.add_marker(
+                            pytest.mark.flaky(reruns=RERUNS, reruns_delay=RERUNS_DELAY_S, only_rerun=["AssertionError"])
+                        )
                     else:
                         node.add_marker(pytest.mark.skip(reason=f"not run: {difference.reason}"))
                     break

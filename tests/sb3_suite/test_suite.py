@@ -9,7 +9,7 @@ import pytest
 from stable_baselines3.common.env_util import make_vec_env
 
 from tests.sb3_suite.substitutes import DEFAULT_SEED, DROPPED_ARGUMENTS, make_substitutes, translate_arguments
-from tests.sb3_suite.suite import TEST_FILES_LIST, VARIANTS, collected_ids, read_differences
+from tests.sb3_suite.suite import RERUNS, RERUNS_DELAY_S, TEST_FILES_LIST, VARIANTS, collected_ids, read_differences
 
 REPOSITORY = pathlib.Path(__file__).parents[2]
 
@@ -31,6 +31,33 @@ def test_every_difference_matches_a_collected_test(request: pytest.FixtureReques
         if not all(any(difference.matches(test_id, variant) for test_id in ids[variant]) for variant in difference.variants)
     ]
     assert not stale, f"differences.md rows that match no collected SB3 test: {stale}"
+
+
+def test_rerun_rows_mark_their_tests_flaky(request: pytest.FixtureRequest) -> None:
+    """A ``rerun`` row gives its tests pytest-rerunfailures' marker (retrying a failed assertion only); others get none."""
+    ids = suite_ids(request.config)
+    rerun_rows = [difference for difference in read_differences() if difference.outcome == "rerun"]
+    rerun = {
+        (variant, test_id)
+        for variant, variant_ids in ids.items()
+        for test_id in variant_ids
+        if any(row.matches(test_id, variant) for row in rerun_rows)
+    }
+    assert len(rerun) == 2, "test_logger.py::test_fps_logger[REINFORCE_as_A2C], in both variants"
+    selected = 0
+    for item in request.session.items:
+        if "sb3_test_files.txt::" not in item.nodeid:
+            continue
+        variant, test_id = item.nodeid.split("::", 2)[1:]
+        marker = item.get_closest_marker("flaky")
+        if (variant, test_id) in rerun:
+            assert marker is not None, item.nodeid
+            assert marker.kwargs == dict(reruns=RERUNS, reruns_delay=RERUNS_DELAY_S, only_rerun=["AssertionError"])
+            selected += 1
+        else:
+            assert marker is None, item.nodeid
+    if not selected:
+        pytest.skip("the tests of the rerun rows are not selected in this session")
 
 
 def test_only_on_policy_tests_are_collected(request: pytest.FixtureRequest) -> None:
