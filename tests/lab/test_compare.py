@@ -12,7 +12,10 @@ import gymnasium as gym
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from matplotlib.figure import Figure
+from scipy import stats
 
 import sb3_reinforce
 from sb3_reinforce.lab.cli import main as cli_main
@@ -64,6 +67,15 @@ def test_iqm_hand_computed() -> None:
     assert iqm([1, 2, 3, 4, 5, 6, 7, 8]) == 4.5  # mean(3, 4, 5, 6)
     with pytest.raises(ValueError):
         iqm([])
+
+
+@given(st.lists(st.floats(allow_nan=True, allow_infinity=True, width=64), min_size=1, max_size=40))
+def test_iqm_is_scipys_trim_mean(values: list[float]) -> None:
+    # The same float as scipy's (rliable's IQM), NaN where scipy gives NaN
+    expected = stats.trim_mean(np.asarray(values), 0.25, axis=None)
+    with np.errstate(all="ignore"):
+        got = iqm(values)
+    assert got == expected or (np.isnan(got) and np.isnan(expected))
 
 
 def test_bootstrap_ci_hand_computed() -> None:
