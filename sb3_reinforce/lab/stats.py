@@ -44,8 +44,8 @@ def iqm(values: Sequence[float] | np.ndarray) -> float:
     """
     Interquartile mean: the mean of the middle 50% of the values, ``scipy.stats.trim_mean(values, 0.25)`` (as rliable),
     computed as scipy computes it (the same float: ``tests/lab/test_compare.py`` holds it to scipy's) without scipy's
-    per-call argument handling, which costs some 20 times the computation: seaborn's bootstrap calls this once per
-    resample (the MuJoCo overview figure: 380,000 calls).
+    per-call argument handling, which makes its call about 11 times as long on 10 values (81 against 7.3 us):
+    seaborn's bootstrap calls this once per resample (the MuJoCo overview figure: 380,000 calls).
 
     :param values: The scores (one per run)
     :return: The IQM (NaN if a value is NaN)
