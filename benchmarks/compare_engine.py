@@ -72,7 +72,7 @@ def cluster_start_up_s() -> float:
     code = """
 import os, time
 start = time.perf_counter()
-from sb3_reinforce.lab.compare.cluster import open_client
+from sb3_reinforce.lab.cluster import open_client
 workers = os.cpu_count() or 1
 with open_client(None, workers, 1) as client:
     client.wait_for_workers(workers)

@@ -29,7 +29,8 @@ MAIN_JOB = ["--env", "CartPole-v1", "--seeds", "3", "--no-progress"]
 ALGOS = ("reinforce", "ppo", "a2c")
 COLUMNS = ["mode", "repeat", "wall_s", "peak_rss_mb", "load_before", "load_after", "returncode"]
 RUN_ONE = (
-    "import sys; from pathlib import Path; from sb3_reinforce.lab.compare.runner import RunSpec, run; "
+    "import sys; from pathlib import Path; from sb3_reinforce.lab.compare.folder import RunSpec; "
+    "from sb3_reinforce.lab.compare.runner import run; "
     "run(RunSpec('CartPole-v1', sys.argv[1], int(sys.argv[2]), 100000, 5000, 5), Path(sys.argv[3]))"
 )
 

@@ -28,7 +28,8 @@ SETTINGS = ("unset", "65536")
 CHILD = """
 import sys
 from pathlib import Path
-from sb3_reinforce.lab.compare.runner import RunSpec, run
+from sb3_reinforce.lab.compare.folder import RunSpec
+from sb3_reinforce.lab.compare.runner import run
 env_id, vec_env, steps, out = sys.argv[1], sys.argv[2], int(sys.argv[3]), Path(sys.argv[4])
 run(RunSpec(env_id, "reinforce", 0, steps, steps, 1), out, vec_env=vec_env)
 """

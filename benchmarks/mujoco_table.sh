@@ -2,7 +2,7 @@
 # The MuJoCo table of docs/results.md in one command (issue 45): REINFORCE's zoo entry (zoo_configs/reinforce.yml)
 # on each env of the published table (benchmarks/published/reinforce_mujoco.csv), 10 fresh seeds (1000-1009), 3M
 # steps, evaluation every 50k steps of 10 deterministic and 10 sampled episodes, then the tables with the published
-# numbers beside them (README.md's; docs/results.md's, its figure, and PPO's beside rl-baselines3-zoo's). Resumable:
+# numbers beside them (docs/results.md's, its figure, and PPO's beside rl-baselines3-zoo's). Resumable:
 # run it again after a stop (finished runs are kept, unfinished ones resume).
 #
 #   bash benchmarks/mujoco_table.sh                                # on this machine, one env after the other
@@ -48,8 +48,7 @@ for line in "${targets[@]}"; do
 done
 for pid in "${pids[@]}"; do wait "$pid"; done
 mapfile -t folders < <(find benchmarks/results/verify_mujoco -mindepth 2 -maxdepth 2 -name results.csv -printf '%h\n' | sort)
-# every table and figure the README and the results page show, from the committed runs (tests/test_docs.py checks them)
-sb3-reinforce report "${folders[@]}" --published "$published" --published-into README.md
+# every table and figure the results page shows, from the committed runs (tests/test_docs.py checks them)
 sb3-reinforce report "${folders[@]}" --published "$published" --published-into docs/results.md --figure docs/images/mujoco.png
 sb3-reinforce report "${folders[@]}" --published "$ppo_published" --published-algo ppo \
     --published-into docs/results.md

@@ -33,8 +33,8 @@ import pandas as pd
 import yaml
 
 from sb3_reinforce.lab.compare.command import runs_to_do
-from sb3_reinforce.lab.compare.figures import PER_RUN_DIR
-from sb3_reinforce.lab.compare.runner import RunSpec, run
+from sb3_reinforce.lab.compare.folder import PER_RUN_DIR, RunSpec
+from sb3_reinforce.lab.compare.runner import run
 from sb3_reinforce.lab.zoo.hyperparams_opt import suggest_reinforce_params, zoo_entry
 from sb3_reinforce.reinforce.buffers import RolloutLimitError
 

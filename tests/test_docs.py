@@ -72,9 +72,9 @@ PUBLISHED_COMMAND = (
 )
 
 
-@pytest.mark.parametrize("page", ["README.md", "docs/results.md"])
+@pytest.mark.parametrize("page", ["docs/results.md"])
 def test_published_table_is_the_committed_results(page: str, monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    # The MuJoCo tables of the README and of the results page are what `report --published` makes of the committed
+    # The MuJoCo tables of the results page are what `report --published` makes of the committed
     # folders and the published numbers' CSV, so they cannot go stale (REINFORCE's against the published REINFORCE,
     # and on the results page PPO's against rl_zoo3's published PPO); the results page shows the figure the same
     # command draws, one panel per env of the folders

@@ -5,7 +5,6 @@ tables and optionally write them into markdown files between ``<!-- MARKER -->``
 """
 
 import argparse
-import json
 import re
 from pathlib import Path
 
@@ -14,16 +13,24 @@ import pandas as pd
 from sb3_reinforce.lab.compare.command import write_outputs
 from sb3_reinforce.lab.compare.experiment import known_algos
 from sb3_reinforce.lab.compare.figures import (
-    PER_RUN_DIR,
     overview_table,
     plot_overview,
     published_table,
     to_markdown,
 )
+from sb3_reinforce.lab.compare.folder import ComparisonFolder
+from sb3_reinforce.lab.provenance import differences
 from sb3_reinforce.lab.seed.summary import render_seed
-from sb3_reinforce.lab.stats import solve_threshold
 
-__all__ = ["build_parser", "main", "published_marker", "render", "update_readme", "write_between_markers"]
+__all__ = [
+    "build_parser",
+    "main",
+    "published_marker",
+    "render",
+    "system_differences",
+    "update_readme",
+    "write_between_markers",
+]
 
 
 def render(out_dir: Path) -> str:
@@ -34,20 +41,33 @@ def render(out_dir: Path) -> str:
     :return: The markdown table
     """
     out_dir = Path(out_dir)
-    if (out_dir / PER_RUN_DIR).is_dir():
-        meta_path = out_dir / "comparison.json"
-        if meta_path.exists():
-            meta = json.loads(meta_path.read_text())
-            env_id, threshold = meta["env"], meta["threshold"]
-        else:
-            env_id = json.loads(next((out_dir / PER_RUN_DIR).glob("*.json")).read_text())["spec"]["env_id"]
-            threshold = solve_threshold(env_id)
+    if ComparisonFolder.holds_comparison(out_dir):
+        folder = ComparisonFolder(out_dir)
+        env_id, threshold = folder.read_meta()
         if write_outputs(out_dir, env_id, threshold) is None:
             raise ValueError(f"{out_dir} has no finished run yet")
-        return (out_dir / "summary.md").read_text()
+        return folder.output(folder.SUMMARY_MD).read_text()
     if any(out_dir.glob("episodes_seed*.csv")):
         return render_seed(out_dir)
     raise ValueError(f"{out_dir} is neither a comparison (per_run/) nor a seed reproduction (episodes_seed*.csv)")
+
+
+def system_differences(folders: list[Path]) -> str | None:
+    """
+    Where the finished runs of comparison folders were made under different versions, CPU types or torch threads
+    (their summaries' ``system``), one line saying which: such runs are not reproducible bit for bit from one another.
+
+    :param folders: Comparison folders
+    :return: The line, or None where every run recorded the same (or none recorded any)
+    """
+    systems = [
+        summary.get("system", {}) for folder in folders for summary in ComparisonFolder(folder).load_summaries().values()
+    ]
+    found = differences(systems)
+    if not found:
+        return None
+    listed = "; ".join(f"{key}: {', '.join(values)}" for key, values in found.items())
+    return f"Note: these runs were made under different {', '.join(found)} ({listed})"
 
 
 def write_between_markers(path: Path, marker: str, text: str) -> bool:
@@ -140,6 +160,21 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _published(parser: argparse.ArgumentParser, args: argparse.Namespace, comparisons: list[Path]) -> None:
+    """Print (and with ``--published-into`` write) the published table of ``--published`` beside the comparisons'."""
+    if not args.published.is_file():
+        parser.error(f"--published: no such file {args.published}")
+    if args.published_algo not in known_algos():
+        parser.error(f"--published-algo: unknown algorithm {args.published_algo!r} (one of: {known_algos()})")
+    published = to_markdown(published_table(comparisons, pd.read_csv(args.published), args.published_algo))
+    print(f"## Published results\n\n{published}")
+    if args.published_into is not None:
+        marker = published_marker(args.published_algo)
+        if not write_between_markers(args.published_into, marker, published):
+            parser.error(f"{args.published_into} has no <!-- {marker} --> and <!-- /{marker} --> markers")
+        print(f"{args.published_into}: published table updated")
+
+
 def main(argv: list[str] | None = None) -> None:
     """Command line entry point (see the module docstring)."""
     parser = build_parser()
@@ -153,7 +188,10 @@ def main(argv: list[str] | None = None) -> None:
         except ValueError as error:
             parser.error(str(error))
         print(f"## {name}\n\n{tables[name.rstrip('/')]}")
-    comparisons = [Path(name) for name in args.dirs if (Path(name) / PER_RUN_DIR).is_dir()]
+    comparisons = [Path(name) for name in args.dirs if ComparisonFolder.holds_comparison(Path(name))]
+    note = system_differences(comparisons)
+    if note is not None:
+        print(note)
     if args.figure is not None:
         plot_overview(comparisons, args.figure)
         print(f"{args.figure}: figure written")
@@ -169,17 +207,7 @@ def main(argv: list[str] | None = None) -> None:
     if args.published is None and (args.published_into is not None or args.published_algo != "reinforce"):
         parser.error("--published-into and --published-algo need --published CSV")
     if args.published is not None:
-        if not args.published.is_file():
-            parser.error(f"--published: no such file {args.published}")
-        if args.published_algo not in known_algos():
-            parser.error(f"--published-algo: unknown algorithm {args.published_algo!r} (one of: {known_algos()})")
-        published = to_markdown(published_table(comparisons, pd.read_csv(args.published), args.published_algo))
-        print(f"## Published results\n\n{published}")
-        if args.published_into is not None:
-            marker = published_marker(args.published_algo)
-            if not write_between_markers(args.published_into, marker, published):
-                parser.error(f"{args.published_into} has no <!-- {marker} --> and <!-- /{marker} --> markers")
-            print(f"{args.published_into}: published table updated")
+        _published(parser, args, comparisons)
     if args.readme is not None:
         updated = update_readme(args.readme, tables)
         missing = sorted(set(tables) - set(updated))

@@ -6,7 +6,9 @@ import pathlib
 import gymnasium as gym
 import numpy as np
 import pytest
+import torch as th
 from stable_baselines3.common.env_util import make_vec_env
+from stable_baselines3.common.envs import IdentityEnv, IdentityEnvBox
 from stable_baselines3.common.evaluation import evaluate_policy
 from stable_baselines3.common.logger import configure
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
@@ -26,22 +28,49 @@ def test_vec_normalize(tmp_path: pathlib.Path) -> None:
     assert np.isfinite(mean)
 
 
-def test_subproc_vec_env() -> None:
-    env = make_vec_env("CartPole-v1", n_envs=2, seed=0, vec_env_cls=SubprocVecEnv)
+def _train_cartpole(vec_env_cls: type) -> tuple[dict[str, th.Tensor], dict[str, th.Tensor], list[float]]:
+    """REINFORCE's weights before and after ``learn(1000)`` on two seeded CartPole envs, and its episodes' returns."""
+    env = make_vec_env("CartPole-v1", n_envs=2, seed=0, vec_env_cls=vec_env_cls)
     try:
-        model = REINFORCE("MlpPolicy", env, n_episodes=2, seed=0).learn(1000)
-        assert model.num_timesteps >= 1000
-        assert len(model.ep_info_buffer) > 0
+        model = REINFORCE("MlpPolicy", env, n_episodes=2, seed=0)
+        initial = {name: value.clone() for name, value in model.policy.state_dict().items()}
+        model.learn(1000)
+        return initial, model.policy.state_dict(), [info["r"] for info in model.ep_info_buffer]
     finally:
         env.close()
 
 
-def test_evaluate_policy() -> None:
-    model = REINFORCE("MlpPolicy", "CartPole-v1", seed=0).learn(500)
-    rewards, lengths = evaluate_policy(
-        model, gym.make("CartPole-v1"), n_eval_episodes=3, return_episode_rewards=True, warn=False
+def test_subproc_vec_env() -> None:
+    # The envs in subprocesses give the same training as in this process: same episodes, same weights
+    initial, subproc, subproc_returns = _train_cartpole(SubprocVecEnv)
+    _, dummy, dummy_returns = _train_cartpole(DummyVecEnv)
+    assert len(subproc_returns) > 0
+    assert subproc_returns == dummy_returns
+    assert subproc.keys() == dummy.keys()
+    assert all(th.equal(subproc[name], dummy[name]) for name in dummy)
+    assert not all(th.equal(subproc[name], initial[name]) for name in initial)  # the control: it trained
+
+
+@pytest.mark.parametrize(
+    "make_env", [lambda: IdentityEnv(4, ep_length=20), lambda: IdentityEnvBox(eps=0.5, ep_length=20)], ids=["Discrete", "Box"]
+)
+def test_evaluate_policy(make_env) -> None:
+    # A known policy: with net_arch=[] the actor is one linear layer, set to the identity, whose mode (the largest
+    # logit, the Gaussian's mean) is the action IdentityEnv rewards. Its samples often miss (logits 1 apart: p = 0.48;
+    # std 1 against eps 0.5: p = 0.38 per step), so only the deterministic prediction scores on every step.
+    model = REINFORCE("MlpPolicy", make_env(), policy_kwargs=dict(net_arch=[]), seed=0)
+    action_net = model.policy.action_net
+    with th.no_grad():
+        action_net.weight.copy_(th.eye(*action_net.weight.shape))
+        action_net.bias.zero_()
+
+    rewards, lengths = evaluate_policy(model, make_env(), n_eval_episodes=3, return_episode_rewards=True, warn=False)
+    assert rewards == [20.0] * 3
+    assert lengths == [20] * 3
+    sampled, _ = evaluate_policy(
+        model, make_env(), n_eval_episodes=3, deterministic=False, return_episode_rewards=True, warn=False
     )
-    assert len(rewards) == len(lengths) == 3
+    assert max(sampled) < 20
 
 
 def _tensorboard_tags(log_dir: pathlib.Path) -> set[str]:

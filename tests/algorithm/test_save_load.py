@@ -55,11 +55,19 @@ def test_get_set_parameters() -> None:
         other.set_parameters({"policy": {"not_a_param": th.zeros(1)}, "policy.optimizer": params["policy.optimizer"]})
 
 
-def test_set_env_discards_running_episodes() -> None:
-    model = REINFORCE("MlpPolicy", DummyVecEnv([lambda: IdentityEnv(4)] * 2), n_episodes=1, seed=0).learn(250)
-    model.set_env(DummyVecEnv([lambda: IdentityEnv(4)] * 2))
-    model.learn(250)
-    assert model.rollout_buffer.size() < 2 * 100
+@pytest.mark.parametrize("reset_num_timesteps", [False, True])
+def test_set_env_discards_running_episodes(reset_num_timesteps: bool) -> None:
+    # Episodes of 3 and 5 steps: the first batch (one finished episode per env) ends at step 5, with the first env
+    # 2 steps into its second episode, which stays in the buffer for the next batch
+    old_env = DummyVecEnv([lambda: IdentityEnv(4, ep_length=3), lambda: IdentityEnv(4, ep_length=5)])
+    model = REINFORCE("MlpPolicy", old_env, n_episodes=1, seed=0).learn(1)
+    assert model.rollout_buffer.env_steps.tolist() == [2, 0]
+
+    model.set_env(DummyVecEnv([lambda: IdentityEnv(4, ep_length=4)] * 2))
+    model.learn(1, reset_num_timesteps=reset_num_timesteps)
+    # The next batch is the new envs' first episodes, 4 steps each: the old env's 2 steps are not joined to one of them
+    assert model.rollout_buffer.episode_lengths.tolist() == [4, 4]
+    assert model.rollout_buffer.size() == 0
 
 
 def test_load_without_env_predicts(tmp_path: pathlib.Path) -> None:

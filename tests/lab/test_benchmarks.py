@@ -328,7 +328,7 @@ def test_shell_scripts_parse() -> None:
 
 def test_mujoco_table_writes_what_the_pages_show(tmp_path: Path) -> None:
     # Issue 45's one command: on an env whose runs are all committed (HalfCheetah-v4: REINFORCE's ten, PPO's three)
-    # it trains nothing and writes every MuJoCo table the README and the results page show, and the figure, from the
+    # it trains nothing and writes every MuJoCo table the results page shows, and the figure, from the
     # committed folders. The copies start with those tables emptied and without the figure.
     import os
     import re
@@ -341,7 +341,7 @@ def test_mujoco_table_writes_what_the_pages_show(tmp_path: Path) -> None:
     shutil.copy(BENCHMARKS / "mujoco_table.sh", copy / "benchmarks")
     shutil.copy(BENCHMARKS / "mujoco_thresholds.py", copy / "benchmarks")
     (copy / "docs" / "images").mkdir(parents=True)
-    pages = {page: (repo / page).read_text() for page in ("README.md", "docs/results.md")}
+    pages = {page: (repo / page).read_text() for page in ("docs/results.md",)}
     emptied = {}
     for page, text in pages.items():
         emptied[page] = re.sub(r"(<!-- (published(?::\w+)?) -->\n).*?(<!-- /\2 -->)", r"\1\3", text, flags=re.DOTALL)

@@ -12,22 +12,22 @@ import gymnasium as gym
 import numpy as np
 import pandas as pd
 import pytest
+import torch as th
 from hypothesis import given
 from hypothesis import strategies as st
 from matplotlib.figure import Figure
 from scipy import stats
 
 import sb3_reinforce
+from sb3_reinforce.lab import provenance
 from sb3_reinforce.lab.cli import main as cli_main
-from sb3_reinforce.lab.compare import runner
+from sb3_reinforce.lab.compare import experiment, runner
 from sb3_reinforce.lab.compare.command import build_parser, main, parse_specs, runs_to_do, write_outputs
 from sb3_reinforce.lab.compare.experiment import EVAL_SEED_OFFSET, build_run, known_algos, read_entry
 from sb3_reinforce.lab.compare.figures import (
     BAND_LABEL,
-    PER_RUN_DIR,
     best_mean,
     every_seed_reached,
-    load_summaries,
     overview_table,
     plot_learning_curves,
     plot_seed_curves,
@@ -36,7 +36,7 @@ from sb3_reinforce.lab.compare.figures import (
     summary_table,
     to_markdown,
 )
-from sb3_reinforce.lab.compare.runner import RESULT_COLUMNS, RunSpec, code_version
+from sb3_reinforce.lab.compare.folder import PER_RUN_DIR, RESULT_COLUMNS, ComparisonFolder, RunSpec
 from sb3_reinforce.lab.report import build_parser as build_report_parser
 from sb3_reinforce.lab.report import main as render_main
 from sb3_reinforce.lab.report import update_readme
@@ -53,7 +53,7 @@ from sb3_reinforce.lab.stats import (
     solve_threshold,
 )
 from sb3_reinforce.version import __version__
-from tests.lab.test_compare_cluster import assert_localhost_only
+from tests.lab.test_cluster import assert_localhost_only
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -332,7 +332,7 @@ VERIFIED = sorted(p.parent for p in Path(__file__).resolve().parents[2].glob("be
 def test_printed_table_fits_a_terminal(folder: Path) -> None:
     # compare prints summary.md's figures in about 110 columns (summary.md keeps the IQRs: 200+)
     threshold = json.loads((folder / "comparison.json").read_text())["threshold"]
-    results, summaries = pd.read_csv(folder / "results.csv"), load_summaries(folder)
+    results, summaries = pd.read_csv(folder / "results.csv"), ComparisonFolder(folder).load_summaries()
     printed = summary_table(results, summaries, threshold, compact=True).to_string(index=False)
     assert max(len(line) for line in printed.splitlines()) <= 120
     assert max(len(line) for line in to_markdown(summary_table(results, summaries, threshold)).splitlines()) > 120
@@ -379,7 +379,7 @@ def test_finished_run_with_other_settings_is_refused(tmp_path: Path) -> None:
     (tmp_path / PER_RUN_DIR / "ppo_seed0.csv").write_text(",".join(RESULT_COLUMNS) + "\n")  # interrupted: no JSON
     assert runs_to_do([spec], tmp_path) == [spec]
     other = RunSpec("CartPole-v1", "ppo", 0, 2000, 500, 2)
-    (tmp_path / PER_RUN_DIR / "ppo_seed0.json").write_text(json.dumps({"spec": other.__dict__}))
+    (tmp_path / PER_RUN_DIR / "ppo_seed0.json").write_text(json.dumps({"spec": other.identity()}))
     with pytest.raises(ValueError, match="other settings"):
         runs_to_do([spec], tmp_path)
     assert runs_to_do([other], tmp_path) == []
@@ -430,12 +430,43 @@ def test_tiny_compare_run_resume_and_append(tmp_path: Path, capsys: pytest.Captu
     assert "| REINFORCE | 1 |" in table and "| PPO | 1 |" in table and "steps to 475" in table
 
 
+def test_each_run_records_its_system_and_the_report_names_differences(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A run's summary records what decides its numbers besides its settings (the versions, the CPU type, torch's
+    # instruction set and threads); the report says when the runs it shows differ there, and is silent otherwise
+    import shutil
+
+    from sb3_reinforce.lab.report import system_differences
+
+    first = tmp_path / "first"
+    summary = runner.run(RunSpec("CartPole-v1", "reinforce", 0, 600, 300, 1), first)
+    system = summary["system"]
+    assert set(provenance.NUMERIC_KEYS) <= set(system)
+    assert system["PyTorch"] == th.__version__ and system["Numpy"] == np.__version__ and system["PyTorch threads"] == "1"
+    assert system["PyTorch CPU capability"] == th.backends.cpu.get_cpu_capability() and system["CPU"]
+    assert system["sb3_reinforce"] == __version__
+    (first / "comparison.json").write_text(json.dumps(dict(env="CartPole-v1", threshold=475.0)))
+    second = tmp_path / "second"
+    shutil.copytree(first, second)
+    assert system_differences([first, second]) is None
+    other = second / PER_RUN_DIR / "reinforce_seed0.json"
+    recorded = json.loads(other.read_text())
+    recorded["system"]["PyTorch"] = "2.9.1+cpu"
+    other.write_text(json.dumps(recorded))
+    note = system_differences([first, second])
+    versions = ", ".join(sorted([str(th.__version__), "2.9.1+cpu"]))
+    assert note is not None and f"PyTorch: {versions}" in note and "Numpy" not in note
+    render_main([str(first), str(second)])
+    assert note in capsys.readouterr().out
+
+
 def test_code_version_without_git(monkeypatch: pytest.MonkeyPatch) -> None:
     def no_git(*args: object, **kwargs: object) -> None:
         raise FileNotFoundError("git")
 
-    monkeypatch.setattr(runner.subprocess, "run", no_git)
-    assert code_version() == {"sb3_reinforce": __version__, "git_commit": None, "git_dirty": None}
+    monkeypatch.setattr(provenance.subprocess, "run", no_git)
+    assert provenance.code_version() == {"sb3_reinforce": __version__, "git_commit": None, "git_dirty": None}
 
 
 def test_seed_reproduction_tiny_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -791,7 +822,7 @@ def test_evaluation_batch_plays_evaluate_policys_episodes(tmp_path: Path, monkey
         return pd.read_csv(folder / PER_RUN_DIR / "reinforce_seed3.csv")
 
     batched = one_run(tmp_path / "batched")
-    monkeypatch.setattr(runner, "episode_batch", lambda *args: None)  # evaluate_policy, one episode after another
+    monkeypatch.setattr(experiment, "episode_batch", lambda *args: None)  # evaluate_policy, one episode after another
     sequential = one_run(tmp_path / "sequential")
     columns = ["steps", "episodes", "mean_return", "std_return", "mean_return_stochastic", "std_return_stochastic"]
     assert batched[columns].equals(sequential[columns]), pd.concat([batched[columns], sequential[columns]], axis=1)

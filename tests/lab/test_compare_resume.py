@@ -18,8 +18,9 @@ from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 from sb3_reinforce.lab.compare import runner
 from sb3_reinforce.lab.compare.command import write_outputs
 from sb3_reinforce.lab.compare.experiment import build_run
-from sb3_reinforce.lab.compare.figures import PER_RUN_DIR, load_summaries
-from sb3_reinforce.lab.compare.runner import RESULT_COLUMNS, Checkpoint, RunSpec, exploration_noise_to_policy_device
+from sb3_reinforce.lab.compare.folder import PER_RUN_DIR, RESULT_COLUMNS, ComparisonFolder, RunSpec
+from sb3_reinforce.lab.compare.runner import exploration_noise_to_policy_device
+from sb3_reinforce.lab.resource_use import process_tree_cpu_s
 
 
 class _Stop(Exception):
@@ -48,8 +49,8 @@ def test_interrupted_run_resumes_from_its_last_evaluation(tmp_path: Path, algo: 
     with pytest.raises(_Stop):
         runner.run(spec, tmp_path, progress=_stop_after(3))  # stopped right after evaluations 0, 1 and 2
     state = json.loads((runs_dir / f"{spec.name}.checkpoint.json").read_text())
-    assert state["spec"] == spec.__dict__ and state["counters"]["eval_index"] == 3
-    assert load_summaries(tmp_path) == {}  # a checkpoint is not a finished run: the report skips it
+    assert state["spec"] == spec.identity() and state["counters"]["eval_index"] == 3
+    assert ComparisonFolder(tmp_path).load_summaries() == {}  # a checkpoint is not a finished run: the report skips it
     assert write_outputs(tmp_path, "CartPole-v1", 475.0) is None
     stopped_at = int(state["counters"]["steps"])
     assert 2000 <= stopped_at < 3000 and state["cpu_time_s"] > 0
@@ -139,17 +140,17 @@ BUSY_FOR_ONE_CPU_SECOND = "import time\nend = time.process_time() + 1.0\nwhile t
 def test_cpu_time_counts_the_processes_below() -> None:
     # A SubprocVecEnv's environments run in processes of their own: a run's CPU seconds count them, while they run
     # and once they have ended and been waited for
-    before = runner.process_tree_cpu_s()
+    before = process_tree_cpu_s()
     child = subprocess.Popen([sys.executable, "-c", BUSY_FOR_ONE_CPU_SECOND + "time.sleep(60)"])
     try:
         deadline = time.monotonic() + 60
-        while runner.process_tree_cpu_s() - before < 0.9:
+        while process_tree_cpu_s() - before < 0.9:
             assert time.monotonic() < deadline, "the child's CPU seconds were not counted"
             time.sleep(0.1)
     finally:
         child.kill()
         child.wait()
-    assert runner.process_tree_cpu_s() - before >= 0.9  # waited for: in this process's children_user/system
+    assert process_tree_cpu_s() - before >= 0.9  # waited for: in this process's children_user/system
 
 
 def test_cpu_time_counts_processes_a_forkserver_waited_for() -> None:
@@ -159,12 +160,12 @@ def test_cpu_time_counts_processes_a_forkserver_waited_for() -> None:
     warm_up = context.Process(target=exec, args=("pass",))  # starts the forkserver, if this process has none yet
     warm_up.start()
     warm_up.join()
-    before = runner.process_tree_cpu_s()
+    before = process_tree_cpu_s()
     busy = context.Process(target=exec, args=(BUSY_FOR_ONE_CPU_SECOND,))
     busy.start()
     busy.join()
     assert busy.exitcode == 0
-    assert runner.process_tree_cpu_s() - before >= 0.9
+    assert process_tree_cpu_s() - before >= 0.9
 
 
 def test_checkpoint_restores_weights_optimizers_steps_schedule_and_normalization(tmp_path: Path) -> None:
@@ -180,7 +181,7 @@ def test_checkpoint_restores_weights_optimizers_steps_schedule_and_normalization
     built.model.learn(1200)
     original = built.model
     assert original.value_optimizer is not None and original._current_progress_remaining < 1
-    checkpoint = Checkpoint(tmp_path, spec, {"learning_rate": "lin_1e-3"})
+    checkpoint = ComparisonFolder(tmp_path).checkpoint(spec, {"learning_rate": "lin_1e-3"})
     checkpoint.save(original, dict(eval_index=2, steps=original.num_timesteps, episodes=6, train_time_s=1.0, peak_rss_mb=1.0))
 
     fresh = build_run("reinforce", "Pendulum-v1", 0, 10_000, tmp_path / "zoo2", config)
@@ -206,7 +207,7 @@ def test_checkpoint_restores_weights_optimizers_steps_schedule_and_normalization
     np.testing.assert_array_equal(saved_norm.ret_rms.var, loaded_norm.ret_rms.var)
     assert checkpoint.resumed_at_steps == [original.num_timesteps]
     # the same run with other hyperparameters in its file is not resumed from this checkpoint
-    assert Checkpoint(tmp_path, spec, {"learning_rate": "lin_3e-3"}).load_state() is None
+    assert ComparisonFolder(tmp_path).checkpoint(spec, {"learning_rate": "lin_3e-3"}).load_state() is None
 
 
 def test_checkpoint_of_other_settings_or_incomplete_is_ignored(tmp_path: Path) -> None:
@@ -217,12 +218,12 @@ def test_checkpoint_of_other_settings_or_incomplete_is_ignored(tmp_path: Path) -
     state_path = tmp_path / PER_RUN_DIR / f"{spec.name}.checkpoint.json"
     hyperparams = json.loads(state_path.read_text())["hyperparams"]
     assert hyperparams["n_timesteps"] and "policy" in hyperparams  # the zoo entry, as the summary records it
-    assert Checkpoint(tmp_path / PER_RUN_DIR, other, hyperparams).load_state() is None  # same files, other settings
-    assert Checkpoint(tmp_path / PER_RUN_DIR, spec, hyperparams).load_state() is not None
+    assert ComparisonFolder(tmp_path).checkpoint(other, hyperparams).load_state() is None  # same files, other settings
+    assert ComparisonFolder(tmp_path).checkpoint(spec, hyperparams).load_state() is not None
     state_path.write_text("{")  # damaged
-    assert Checkpoint(tmp_path / PER_RUN_DIR, spec, hyperparams).load_state() is None
+    assert ComparisonFolder(tmp_path).checkpoint(spec, hyperparams).load_state() is None
     state_path.unlink()  # a save that did not finish
-    assert Checkpoint(tmp_path / PER_RUN_DIR, spec, hyperparams).load_state() is None
+    assert ComparisonFolder(tmp_path).checkpoint(spec, hyperparams).load_state() is None
     summary = runner.run(spec, tmp_path)  # started over
     assert "resumed_at_steps" not in summary
     rows = pd.read_csv(tmp_path / PER_RUN_DIR / f"{spec.name}.csv")  # one run's rows, from step 0

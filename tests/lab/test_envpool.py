@@ -23,7 +23,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecFrameStack, VecNormalize
 from sb3_reinforce import REINFORCE
 from sb3_reinforce.lab.cli import main as cli_main
 from sb3_reinforce.lab.compare.command import main as compare_main
-from sb3_reinforce.lab.compare.figures import PER_RUN_DIR
+from sb3_reinforce.lab.compare.folder import PER_RUN_DIR
 from sb3_reinforce.lab.envpool_vec_env import (
     ENVPOOL_ENV_IDS,
     EnvPoolVecEnv,

@@ -2,6 +2,18 @@
 
 from sb3_reinforce.lab.compare.command import main
 from sb3_reinforce.lab.compare.experiment import DEFAULT_ALGOS, ZooEntry, build_run, known_algos, read_entry
-from sb3_reinforce.lab.compare.runner import RESULT_COLUMNS, RunSpec, run
+from sb3_reinforce.lab.compare.folder import RESULT_COLUMNS, ComparisonFolder, RunSpec
+from sb3_reinforce.lab.compare.runner import run
 
-__all__ = ["DEFAULT_ALGOS", "RESULT_COLUMNS", "RunSpec", "ZooEntry", "build_run", "known_algos", "main", "read_entry", "run"]
+__all__ = [
+    "DEFAULT_ALGOS",
+    "RESULT_COLUMNS",
+    "ComparisonFolder",
+    "RunSpec",
+    "ZooEntry",
+    "build_run",
+    "known_algos",
+    "main",
+    "read_entry",
+    "run",
+]

@@ -8,7 +8,6 @@ resumes or extends a comparison. The tables and plot are rebuilt from all finish
 """
 
 import argparse
-import json
 import os
 import sys
 from pathlib import Path
@@ -17,7 +16,7 @@ from typing import Any
 import pandas as pd
 from tqdm import tqdm
 
-from sb3_reinforce.lab.compare.cluster import (
+from sb3_reinforce.lab.cluster import (
     ClusterError,
     Job,
     JobResult,
@@ -31,15 +30,14 @@ from sb3_reinforce.lab.compare.experiment import (
     DEFAULT_ALGOS,
     VEC_ENV_TYPES,
     ZooEntry,
-    check_device,
-    check_vec_env,
     known_algos,
+    read_entries,
     read_entry,
     run_cpus,
 )
-from sb3_reinforce.lab.compare.figures import PER_RUN_DIR, load_summaries, plot_learning_curves, summary_table, to_markdown
-from sb3_reinforce.lab.compare.runner import Checkpoint, RunSpec, run, write_replacing
-from sb3_reinforce.lab.extras import check_env_id
+from sb3_reinforce.lab.compare.figures import plot_learning_curves, summary_table, to_markdown
+from sb3_reinforce.lab.compare.folder import ComparisonFolder, RunSpec
+from sb3_reinforce.lab.compare.runner import run
 from sb3_reinforce.lab.stats import solve_threshold
 
 __all__ = ["build_parser", "main", "parse_specs", "runs_to_do", "write_outputs"]
@@ -56,6 +54,13 @@ def build_parser() -> argparse.ArgumentParser:
         prog="sb3-reinforce compare",
         description="Train REINFORCE, PPO and A2C on the same env with the same seeds and evaluation protocol.",
     )
+    _add_run_arguments(parser.add_argument_group("the runs and their evaluation"))
+    _add_execution_arguments(parser.add_argument_group("where and how they run"))
+    return parser
+
+
+def _add_run_arguments(parser: argparse._ArgumentGroup) -> None:
+    """The arguments that define the comparison's runs: env, algorithms, seeds, budget, evaluation, output."""
     parser.add_argument("--env", default="CartPole-v1", help="Gymnasium env id (default: %(default)s)")
     parser.add_argument(
         "--algos",
@@ -85,6 +90,17 @@ def build_parser() -> argparse.ArgumentParser:
         help="episodes per evaluation, deterministic and again stochastic (default: %(default)s)",
     )
     parser.add_argument("--threshold", default=None, help="solve threshold (default: the env's known one, if any)")
+    parser.add_argument("--out", type=Path, default=None, help="output folder (default: runs/compare/<env>)")
+    parser.add_argument(
+        "--reinforce-config",
+        type=Path,
+        default=None,
+        help="REINFORCE's zoo yml (default: the package's zoo_configs/reinforce.yml)",
+    )
+
+
+def _add_execution_arguments(parser: argparse._ArgumentGroup) -> None:
+    """The arguments of where and how the runs train: workers, environment processes, device, cluster, output."""
     parser.add_argument(
         "--workers",
         type=int,
@@ -92,13 +108,6 @@ def build_parser() -> argparse.ArgumentParser:
         help="parallel runs: the worker processes of the local cluster, >= 1; with --scheduler, the cluster's workers "
         f"decide (default: one per CPU core, {os.cpu_count() or 1} here; with --vec-env subproc, the cores divided by "
         "the largest n_envs, as such a run keeps n_envs cores busy)",
-    )
-    parser.add_argument("--out", type=Path, default=None, help="output folder (default: runs/compare/<env>)")
-    parser.add_argument(
-        "--reinforce-config",
-        type=Path,
-        default=None,
-        help="REINFORCE's zoo yml (default: the package's zoo_configs/reinforce.yml)",
     )
     parser.add_argument(
         "--vec-env",
@@ -126,7 +135,6 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--dashboard", action="store_true", help="serve the local cluster's Dask dashboard on 127.0.0.1:8787")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
-    return parser
 
 
 def _parse_threshold(text: str | None, env_id: str) -> float | None:
@@ -138,22 +146,8 @@ def _parse_threshold(text: str | None, env_id: str) -> float | None:
         raise ValueError(f"--threshold must be a number, got {text!r}") from None
 
 
-def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None, dict[str, ZooEntry]]:
-    """
-    Check the arguments and load every algorithm's hyperparameters, before anything is trained.
-
-    :param args: The parsed command line
-    :return: The runs (finished or not), the solve threshold and each algorithm's zoo entry
-    :raises ValueError: on any bad input, with a message saying what to change
-    """
-    check_env_id(args.env)
-    check_vec_env(args.vec_env, args.env)
-    check_device(args.device, here=args.scheduler is None)
-    algos = list(dict.fromkeys(algo.strip().lower() for algo in args.algos.split(",") if algo.strip()))
-    known = known_algos()
-    unknown = [algo for algo in algos if algo not in known]
-    if unknown or not algos:
-        raise ValueError(f"Unknown algorithm(s) {unknown or args.algos!r}: choose among {', '.join(known)}")
+def _check_numbers(args: argparse.Namespace) -> None:
+    """Check the counts of the command line: seeds, first seed, workers, evaluation episodes and frequency."""
     if args.seeds < 1:
         raise ValueError(f"--seeds must be >= 1, got {args.seeds}")
     if not 0 <= args.first_seed <= MAX_SEED - args.seeds + 1:
@@ -165,36 +159,57 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None, 
         raise ValueError(f"--workers must be >= 1, got {args.workers}")
     if args.eval_episodes < 1:
         raise ValueError(f"--eval-episodes must be >= 1, got {args.eval_episodes}")
-    threshold = _parse_threshold(args.threshold, args.env)
-    config_paths = {algo: None for algo in algos}
-    if args.reinforce_config is not None:
-        config_paths["reinforce"] = args.reinforce_config
-    entries = {algo: read_entry(algo, args.env, config_paths[algo], args.vec_env) for algo in algos}
-    if args.budget in ("ppo", "zoo"):
-        ppo_budget = read_entry("ppo", args.env).n_timesteps if args.budget == "ppo" else 0
-        budgets = {algo: ppo_budget or entries[algo].n_timesteps for algo in algos}
-    else:
-        try:
-            budget = int(float(args.budget))
-        except ValueError:
-            raise ValueError(f"--budget must be 'ppo', 'zoo' or a number of steps, got {args.budget!r}") from None
-        if budget < 1:
-            raise ValueError(f"--budget must be >= 1 step, got {budget}")
-        budgets = dict.fromkeys(algos, budget)
     if args.eval_freq is not None and args.eval_freq < 1:
         raise ValueError(f"--eval-freq must be >= 1, got {args.eval_freq}")
+
+
+def _algos(text: str) -> list[str]:
+    """The algorithms of ``--algos``, in order, each once; refuse one rl_zoo3 does not know."""
+    algos = list(dict.fromkeys(algo.strip().lower() for algo in text.split(",") if algo.strip()))
+    known = known_algos()
+    unknown = [algo for algo in algos if algo not in known]
+    if unknown or not algos:
+        raise ValueError(f"Unknown algorithm(s) {unknown or text!r}: choose among {', '.join(known)}")
+    return algos
+
+
+def _budgets(text: str, env_id: str, entries: dict[str, ZooEntry]) -> dict[str, int]:
+    """Each algorithm's budget from ``--budget``: PPO's zoo budget, each its own, or a number of steps."""
+    if text in ("ppo", "zoo"):
+        ppo_budget = 0
+        if text == "ppo":  # PPO's entry as it trains on Gymnasium's envs: its budget alone is read
+            ppo_budget = (entries["ppo"] if "ppo" in entries else read_entry("ppo", env_id)).n_timesteps
+        return {algo: ppo_budget or entry.n_timesteps for algo, entry in entries.items()}
+    try:
+        budget = int(float(text))
+    except ValueError:
+        raise ValueError(f"--budget must be 'ppo', 'zoo' or a number of steps, got {text!r}") from None
+    if budget < 1:
+        raise ValueError(f"--budget must be >= 1 step, got {budget}")
+    return dict.fromkeys(entries, budget)
+
+
+def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None, dict[str, ZooEntry]]:
+    """
+    Check the arguments and read every algorithm's zoo entry (once), before anything is trained.
+
+    :param args: The parsed command line
+    :return: The runs (finished or not, each with its entry), the solve threshold and each algorithm's zoo entry
+    :raises ValueError: on any bad input, with a message saying what to change
+    """
+    algos = _algos(args.algos)
+    _check_numbers(args)
+    configs: dict[str, Path | None] = dict.fromkeys(algos)
+    if args.reinforce_config is not None:
+        configs["reinforce"] = args.reinforce_config
+    entries = read_entries(args.env, configs, args.vec_env, args.device, here=args.scheduler is None)
+    threshold = _parse_threshold(args.threshold, args.env)
+    budgets = _budgets(args.budget, args.env, entries)
     eval_freqs = {algo: args.eval_freq or max(1, budgets[algo] // DEFAULT_EVALS_PER_RUN) for algo in algos}
+    config_names = {algo: None if path is None else str(path) for algo, path in configs.items()}
     # Seed-major order: a stopped command's finished runs compare all algorithms on the same seeds
     specs = [
-        RunSpec(
-            args.env,
-            algo,
-            seed,
-            budgets[algo],
-            eval_freqs[algo],
-            args.eval_episodes,
-            None if config_paths[algo] is None else str(config_paths[algo]),
-        )
+        RunSpec(args.env, algo, seed, budgets[algo], eval_freqs[algo], args.eval_episodes, config_names[algo], entries[algo])
         for seed in range(args.first_seed, args.first_seed + args.seeds)
         for algo in algos
     ]
@@ -203,16 +218,7 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None, 
 
 def runs_to_do(specs: list[RunSpec], out_dir: Path) -> list[RunSpec]:
     """The runs still to do; refuse an output folder whose finished runs used other settings."""
-    todo = []
-    for spec in specs:
-        path = out_dir / PER_RUN_DIR / f"{spec.name}.json"
-        if not path.exists():
-            todo.append(spec)
-            continue
-        done = json.loads(path.read_text())["spec"]
-        if done != spec.__dict__:
-            raise ValueError(f"{path} is a finished run with other settings ({done}): use another --out, or the same settings")
-    return todo
+    return ComparisonFolder(out_dir).runs_to_do(specs)
 
 
 def _train(channel: RunChannel, spec: RunSpec, vec_env: str, device: str = "cpu") -> dict[str, Any]:
@@ -220,46 +226,21 @@ def _train(channel: RunChannel, spec: RunSpec, vec_env: str, device: str = "cpu"
     return run(spec, channel.folder, progress=channel.send, vec_env=vec_env, heartbeat=channel.check_stop, device=device)
 
 
-def _write_files(out_dir: Path, files: dict[str, bytes]) -> None:
-    """Write a run's files (relative paths) into ``out_dir`` atomically; JSON files (completion marks) go last."""
-    for relative in files:
-        if Path(relative).is_absolute() or ".." in Path(relative).parts:
-            raise ValueError(f"a run sent back a file outside its folder: {relative!r}")
-        if relative.endswith(".json"):
-            (out_dir / relative).unlink(missing_ok=True)
-    for relative, data in sorted(files.items(), key=lambda item: item[0].endswith(".json")):
-        (out_dir / relative).parent.mkdir(parents=True, exist_ok=True)
-        write_replacing(out_dir / relative, data)
-
-
-def _run_files(out_dir: Path, spec: RunSpec) -> dict[str, bytes]:
-    """The files of an unfinished run in ``out_dir`` (its CSV and checkpoint), to resume it wherever it lands."""
-    runs_dir = out_dir / PER_RUN_DIR
-    return {
-        path.relative_to(out_dir).as_posix(): path.read_bytes()
-        for path in sorted(runs_dir.glob(f"{spec.name}.*"))
-        if ".tmp" not in path.name
-    }
-
-
-def _run_all(todo: list[RunSpec], out_dir: Path, args: argparse.Namespace) -> dict[str, str]:
+def _run_all(todo: list[RunSpec], folder: ComparisonFolder, args: argparse.Namespace) -> dict[str, str]:
     """
-    Run ``todo`` on Dask, writing each run's files into ``out_dir`` as they come back.
+    Run ``todo`` on Dask, writing each run's files into ``folder`` as they come back.
 
     :return: The runs that failed: name -> reason
     """
-    n_envs = {(s.algo, s.config_path): 0 for s in todo}
-    for algo, config in n_envs:
-        config_path = None if config is None else Path(config)
-        n_envs[algo, config] = read_entry(algo, todo[0].env_id, config_path, args.vec_env).n_envs
+    specs = {spec.name: spec for spec in todo}
     jobs = [
         Job(
             spec.name,
             _train,
             (spec, args.vec_env, args.device),
-            run_cpus(n_envs[spec.algo, spec.config_path], args.vec_env),
-            f"{PER_RUN_DIR}/{spec.name}.*",
-            _run_files(out_dir, spec),
+            run_cpus(spec.entry.n_envs if spec.entry is not None else 1, args.vec_env),
+            folder.run_files_pattern(spec),
+            folder.run_files(spec),
         )
         for spec in todo
     ]
@@ -284,16 +265,11 @@ def _run_all(todo: list[RunSpec], out_dir: Path, args: argparse.Namespace) -> di
             done_steps[name] = max(steps, done_steps.get(name, 0))
 
         def on_files(name: str, steps: int, files: dict[str, bytes]) -> None:
-            _write_files(out_dir, files)
+            folder.write_run_files(files)
             advance(name, steps)
 
         def on_result(name: str, result: JobResult) -> None:
-            summary_name = f"{PER_RUN_DIR}/{name}.json"
-            summary = dict(json.loads(result.files[summary_name]), worker=result.worker)
-            _write_files(out_dir, result.files | {summary_name: json.dumps(summary, indent=2).encode()})
-            for path in (out_dir / PER_RUN_DIR).glob(f"{name}.*"):  # its checkpoint, deleted at its end
-                if path.relative_to(out_dir).as_posix() not in result.files:
-                    path.unlink()
+            folder.write_finished_run(specs[name], result.files, result.worker)
             advance(name, budgets[name])
             finished.add(name)
             bar.set_postfix(finished=f"{len(finished)}/{len(todo)}")
@@ -311,65 +287,69 @@ def write_outputs(out_dir: Path, env_id: str, threshold: float | None) -> pd.Dat
     :param threshold: The solve threshold
     :return: The summary table, or None if no run has finished
     """
-    summaries = load_summaries(out_dir)
-    if not summaries:
+    folder = ComparisonFolder(out_dir)
+    results = folder.finished_evaluations()
+    if results is None:
         return None
-    frames = [pd.read_csv(out_dir / PER_RUN_DIR / f"{algo}_seed{seed}.csv") for algo, seed in summaries]
-    results = pd.concat(frames, ignore_index=True)
     order = {algo: i for i, algo in enumerate([*DEFAULT_ALGOS, *sorted(set(results["algo"]) - set(DEFAULT_ALGOS))])}
     results = results.sort_values(["algo", "seed", "eval_index"], key=lambda c: c.map(order) if c.name == "algo" else c)
-    results.to_csv(out_dir / "results.csv", index=False)
-    table = summary_table(results, summaries, threshold)
-    table.to_csv(out_dir / "summary.csv", index=False)
-    (out_dir / "summary.md").write_text(to_markdown(table))
-    plot_learning_curves(results, threshold, out_dir / "learning_curve.png", f"{env_id}: deterministic evaluation")
+    results.to_csv(folder.output(folder.RESULTS), index=False)
+    table = summary_table(results, folder.load_summaries(), threshold)
+    table.to_csv(folder.output(folder.SUMMARY_CSV), index=False)
+    folder.output(folder.SUMMARY_MD).write_text(to_markdown(table))
+    plot_learning_curves(results, threshold, folder.output(folder.LEARNING_CURVE), f"{env_id}: deterministic evaluation")
     return table
+
+
+def _announce(specs: list[RunSpec], todo: list[RunSpec], folder: ComparisonFolder) -> None:
+    """Print what the command will do: the runs, finished or not, and each algorithm's budget, evaluation and entry."""
+    resuming = sum(folder.checkpoint(spec, {}).exists() for spec in todo)
+    print(
+        f"{len(specs)} runs of {specs[0].env_id} -> {folder.root}: {len(specs) - len(todo)} already finished, "
+        f"{resuming} resume from a checkpoint, {len(todo) - resuming} start from scratch"
+    )
+    for algo in dict.fromkeys(spec.algo for spec in specs):
+        spec = next(s for s in specs if s.algo == algo)
+        print(f"  {algo}: {spec.budget:,} steps, evaluation every {spec.eval_freq:,} steps x {spec.n_eval_episodes} episodes")
+        entry = spec.entry
+        if entry is not None and entry.fallback is not None:
+            print(
+                f"    {entry.source.name} has no entry for {spec.env_id}: rl_zoo3's {entry.fallback!r} entry is used "
+                f"({entry.hyperparams.get('policy')}, {entry.n_envs} env(s)), not tuned for this environment"
+            )
 
 
 def main(argv: list[str] | None = None) -> None:
     """Command line entry point (see the module docstring)."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    out_dir: Path = args.out or Path("runs") / "compare" / args.env
+    folder = ComparisonFolder(args.out or Path("runs") / "compare" / args.env)
     try:
-        specs, threshold, entries = parse_specs(args)
-        todo = runs_to_do(specs, out_dir)
+        specs, threshold, _ = parse_specs(args)
+        todo = folder.runs_to_do(specs)
     except ValueError as error:  # one line (the usage would hide it): what to change
         print(f"{parser.prog}: error: {error}", file=sys.stderr)
         sys.exit(2)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / "comparison.json").write_text(json.dumps(dict(env=args.env, threshold=threshold), indent=2))
-    resuming = sum(Checkpoint(out_dir / PER_RUN_DIR, spec, {}).exists() for spec in todo)
-    print(
-        f"{len(specs)} runs of {args.env} -> {out_dir}: {len(specs) - len(todo)} already finished, "
-        f"{resuming} resume from a checkpoint, {len(todo) - resuming} start from scratch"
-    )
-    for algo in dict.fromkeys(spec.algo for spec in specs):
-        spec = next(s for s in specs if s.algo == algo)
-        print(f"  {algo}: {spec.budget:,} steps, evaluation every {spec.eval_freq:,} steps x {spec.n_eval_episodes} episodes")
-        if entries[algo].fallback is not None:
-            print(
-                f"    {entries[algo].source.name} has no entry for {args.env}: rl_zoo3's {entries[algo].fallback!r} "
-                f"entry is used ({entries[algo].hyperparams.get('policy')}, {entries[algo].n_envs} env(s)), "
-                "not tuned for this environment"
-            )
+    folder.write_meta(args.env, threshold)
+    _announce(specs, todo, folder)
     interrupted = False
     failures: dict[str, str] = {}
     try:
         with sigterm_as_interrupt():  # `kill PID` stops the command as Ctrl-C does
             if todo:
-                failures = _run_all(todo, out_dir, args)
+                failures = _run_all(todo, folder, args)
     except KeyboardInterrupt:
         interrupted = True
     except ClusterError as error:
         print(f"sb3-reinforce compare: error: {error}", file=sys.stderr)
         sys.exit(2)
-    if write_outputs(out_dir, args.env, threshold) is not None:
-        compact = summary_table(pd.read_csv(out_dir / "results.csv"), load_summaries(out_dir), threshold, compact=True)
-        print(compact.to_string(index=False))
-        print(f"Saved {out_dir / 'results.csv'}, {out_dir / 'summary.md'}, {out_dir / 'learning_curve.png'}")
+    if write_outputs(folder.root, args.env, threshold) is not None:
+        results = pd.read_csv(folder.output(folder.RESULTS))
+        print(summary_table(results, folder.load_summaries(), threshold, compact=True).to_string(index=False))
+        saved = (folder.output(name) for name in (folder.RESULTS, folder.SUMMARY_MD, folder.LEARNING_CURVE))
+        print(f"Saved {', '.join(map(str, saved))}")
     if interrupted:
-        print(f"Interrupted: the finished runs are kept in {out_dir / PER_RUN_DIR}; run the same command to resume.")
+        print(f"Interrupted: the finished runs are kept in {folder.runs_dir}; run the same command to resume.")
         sys.exit(130)
     for name, reason in failures.items():
         print(f"Run {name} failed: {reason}; run the same command to try it again from its last checkpoint.")

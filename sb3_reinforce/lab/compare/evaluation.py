@@ -1,5 +1,6 @@
 """
-A comparison's deterministic evaluation with its episodes stepped together (:class:`EpisodeBatch`), giving the episodes
+A comparison run's evaluation (:class:`Evaluator`): deterministic episodes, then as many with sampled actions, on the
+run's own evaluation environment. The deterministic episodes are stepped together (:class:`EpisodeBatch`), giving the episodes
 and returns of SB3's ``evaluate_policy`` on the run's one evaluation environment: copy ``i`` gets the generator that
 environment had before its ``i``-th reset, and the environment is left as ``evaluate_policy`` leaves it. Returns match
 to the bit where the network's outputs do (a batch may round continuous actions differently). Only for environments that
@@ -12,10 +13,11 @@ from typing import Any
 
 import numpy as np
 from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.evaluation import evaluate_policy
 from stable_baselines3.common.monitor import Monitor
-from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecMonitor, is_vecenv_wrapped
+from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecMonitor, is_vecenv_wrapped, sync_envs_normalization
 
-__all__ = ["PROBE_STEPS", "EpisodeBatch", "draws_only_on_reset", "episode_batch"]
+__all__ = ["PROBE_STEPS", "EpisodeBatch", "Evaluator", "draws_only_on_reset", "episode_batch"]
 
 #: Random-action steps of the check that an environment draws no random number while it steps
 PROBE_STEPS = 200
@@ -124,3 +126,50 @@ def episode_batch(evaluation_env: VecEnv, copies: VecEnv) -> EpisodeBatch | None
         return EpisodeBatch(evaluation_env, copies)
     copies.close()
     return None
+
+
+class Evaluator:
+    """
+    One evaluation of a comparison run: ``n_episodes`` deterministic episodes, then ``n_episodes`` with sampled
+    actions, on the evaluation environment (its ``VecNormalize`` statistics first synchronized with training's).
+
+    :param eval_env: The run's evaluation environment (one environment)
+    :param n_episodes: Episodes of each kind
+    :param batch: Plays the deterministic episodes side by side, with the same returns (None: ``evaluate_policy``)
+    """
+
+    def __init__(self, eval_env: VecEnv, n_episodes: int, batch: EpisodeBatch | None = None) -> None:
+        self.eval_env = eval_env
+        self.n_episodes = n_episodes
+        self.batch = batch
+
+    def evaluate(self, model: BaseAlgorithm, training_env: VecEnv) -> list[float]:
+        """
+        Evaluate ``model``.
+
+        :param model: The model
+        :param training_env: Its training environment (whose normalization statistics the evaluation uses)
+        :return: The mean and standard deviation of the deterministic returns, then of the sampled-action returns
+        """
+        sync_envs_normalization(training_env, self.eval_env)
+        results = []
+        for deterministic in (True, False):
+            if deterministic and self.batch is not None:
+                sync_envs_normalization(training_env, self.batch.copies)
+                rewards: list[float] = self.batch.evaluate(model)
+            else:
+                rewards, _ = evaluate_policy(  # type: ignore[assignment]
+                    model,
+                    self.eval_env,
+                    n_eval_episodes=self.n_episodes,
+                    deterministic=deterministic,
+                    return_episode_rewards=True,
+                )
+            results += [float(np.mean(rewards)), float(np.std(rewards))]
+        return results
+
+    def close(self) -> None:
+        """Close the evaluation environments."""
+        self.eval_env.close()
+        if self.batch is not None:
+            self.batch.copies.close()

@@ -18,7 +18,9 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 
+from sb3_reinforce.lab.compare.evaluation import Evaluator, episode_batch
 from sb3_reinforce.lab.envpool_vec_env import ENVPOOL, check_envpool_env
+from sb3_reinforce.lab.extras import check_env_id
 
 __all__ = [
     "DEFAULT_ALGOS",
@@ -30,6 +32,7 @@ __all__ = [
     "check_device",
     "check_vec_env",
     "known_algos",
+    "read_entries",
     "read_entry",
     "run_cpus",
 ]
@@ -192,6 +195,26 @@ def read_entry(algo: str, env_id: str, config: Path | None = None, vec_env: str 
     return _entry(manager, algo, env_id, saved)
 
 
+def read_entries(
+    env_id: str, configs: dict[str, Path | None], vec_env: str = "dummy", device: str = "cpu", here: bool = True
+) -> dict[str, ZooEntry]:
+    """
+    Check, before anything is built, that the runs can train where and as asked, and read each algorithm's entry.
+
+    :param env_id: The environment id (registered, see :func:`~sb3_reinforce.lab.extras.check_env_id`)
+    :param configs: Each algorithm's yml file (None: its default, as :func:`read_entry`)
+    :param vec_env: How the training environments will be stepped, one of :data:`VEC_ENV_TYPES`
+    :param device: Where the networks will compute, see :func:`check_device`
+    :param here: Whether the runs train on this machine (see :func:`check_device`)
+    :return: Each algorithm's entry
+    :raises ValueError: an unknown env, vec_env or device, or any error of :func:`read_entry`
+    """
+    check_device(device, here)
+    check_env_id(env_id)
+    check_vec_env(vec_env, env_id)
+    return {algo: read_entry(algo, env_id, config, vec_env) for algo, config in configs.items()}
+
+
 def _entry(manager: Any, algo: str, env_id: str, saved: dict[str, Any]) -> ZooEntry:
     """The :class:`ZooEntry` a manager has read (``saved``: the entry as the zoo saves it)."""
     source = Path(manager.config)
@@ -200,15 +223,22 @@ def _entry(manager: Any, algo: str, env_id: str, saved: dict[str, Any]) -> ZooEn
 
 @dataclass
 class BuiltRun:
-    """What one run trains and evaluates: the model, its training env, the evaluation env and the zoo's callbacks."""
+    """
+    What one run trains and evaluates: the model, its training env, the evaluation env, the zoo's callbacks, and the
+    evaluator of ``n_eval_episodes`` episodes on the evaluation env.
+    """
 
     model: BaseAlgorithm
     train_env: VecEnv
     eval_env: VecEnv
     callbacks: list[BaseCallback]
     entry: ZooEntry
-    #: ``eval_copies`` copies of ``eval_env``, for :class:`~sb3_reinforce.lab.compare.evaluation.EpisodeBatch` (or None)
-    eval_copies: VecEnv | None = None
+    evaluator: Evaluator
+
+    def close(self) -> None:
+        """Close the training and evaluation environments."""
+        self.train_env.close()
+        self.evaluator.close()
 
 
 def build_run(
@@ -221,11 +251,13 @@ def build_run(
     vec_env: str = "dummy",
     envpool_threads: int = 1,
     device: str = "cpu",
-    eval_copies: int = 0,
+    n_eval_episodes: int = 1,
 ) -> BuiltRun:
     """
     Build one run as ``sb3-reinforce-zoo train`` would, plus an evaluation ``DummyVecEnv`` from the same manager
-    (``VecNormalize`` in evaluation mode) seeded ``seed + EVAL_SEED_OFFSET``.
+    (``VecNormalize`` in evaluation mode) seeded ``seed + EVAL_SEED_OFFSET``, and its evaluator: with
+    ``n_eval_episodes > 1``, as many copies of the evaluation env play the deterministic episodes side by side where
+    :func:`~sb3_reinforce.lab.compare.evaluation.episode_batch` allows it.
 
     :param algo: An algorithm of :func:`known_algos`
     :param env_id: The environment id
@@ -236,7 +268,7 @@ def build_run(
     :param vec_env: How the training environments are stepped, one of :data:`VEC_ENV_TYPES`
     :param envpool_threads: EnvPool's threads with ``vec_env="envpool"`` (1: a run's one core; 0: one per core)
     :param device: Where the model's networks compute (PyTorch's device), see :func:`check_device`
-    :param eval_copies: Also make this many copies of the evaluation environment in one ``DummyVecEnv`` (0: none)
+    :param n_eval_episodes: Episodes of each kind (deterministic, sampled actions) per evaluation
     :return: The run, ready to ``model.learn``
     """
     check_vec_env(vec_env, env_id)
@@ -250,10 +282,12 @@ def build_run(
         manager.vec_env_class = DummyVecEnv
         try:
             eval_env = manager.create_envs(1, eval_env=True)
-            copies = manager.create_envs(eval_copies, eval_env=True) if eval_copies > 0 else None
+            copies = manager.create_envs(n_eval_episodes, eval_env=True) if n_eval_episodes > 1 else None
         finally:
             manager.seed = seed
     entry = _entry(manager, algo, env_id, saved)
     train_env = model.get_env()
     assert train_env is not None
-    return BuiltRun(model, train_env, eval_env, list(manager.callbacks), entry, copies)
+    batch = None if copies is None else episode_batch(eval_env, copies)
+    evaluator = Evaluator(eval_env, n_eval_episodes, batch)
+    return BuiltRun(model, train_env, eval_env, list(manager.callbacks), entry, evaluator)

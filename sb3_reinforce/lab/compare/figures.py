@@ -1,6 +1,5 @@
 """Tables and plots of comparisons (from ``results.csv`` and run summaries) and of the seed reproduction."""
 
-import json
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
@@ -17,6 +16,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from matplotlib.ticker import FuncFormatter
 
+from sb3_reinforce.lab.compare.folder import ComparisonFolder
 from sb3_reinforce.lab.stats import (
     best_mean_over_seeds,
     bootstrap_ci,
@@ -26,15 +26,10 @@ from sb3_reinforce.lab.stats import (
     rolling_mean,
 )
 
-#: Subfolder of a comparison's output folder with each run's evaluations (CSV) and summary (JSON).
-PER_RUN_DIR = "per_run"
-
 __all__ = [
     "BAND_LABEL",
-    "PER_RUN_DIR",
     "best_mean",
     "learning_curves",
-    "load_summaries",
     "overview_table",
     "plot_learning_curves",
     "plot_overview",
@@ -72,22 +67,6 @@ def _median(values: Sequence[float], fmt: str) -> str:
     """The median over seeds of steps or seconds to the threshold, not-reached seeds counted as infinitely late."""
     median = quantile_with_inf(list(values), 0.5) if len(values) else np.inf
     return "not reached" if np.isinf(median) else fmt.format(median)
-
-
-def load_summaries(out_dir: Path) -> dict[tuple[str, int], dict]:
-    """
-    The JSON summaries of the finished runs in ``out_dir/per_run``.
-
-    :param out_dir: A comparison's output folder
-    :return: {(algo, seed): summary}
-    """
-    summaries = {}
-    for path in sorted((Path(out_dir) / PER_RUN_DIR).glob("*.json")):
-        if path.name.endswith(".checkpoint.json"):  # an unfinished run's checkpoint
-            continue
-        summary = json.loads(path.read_text())
-        summaries[(summary["spec"]["algo"], int(summary["spec"]["seed"]))] = summary
-    return summaries
 
 
 def _per_seed(algo_df: pd.DataFrame) -> tuple[list[pd.DataFrame], list[pd.DataFrame]]:
@@ -169,11 +148,9 @@ def _first_of_each(folders: Sequence[Path]) -> Iterator[tuple[Path, str, float |
     """
     seen: set[tuple[str, str]] = set()
     for folder in folders:
-        if not (Path(folder) / "results.csv").exists():
-            raise ValueError(f"{folder} has no results.csv: no finished run yet (or not a comparison folder)")
-        meta = json.loads((Path(folder) / "comparison.json").read_text())
-        env_id, threshold = str(meta["env"]), meta["threshold"]
-        results = pd.read_csv(Path(folder) / "results.csv")
+        comparison = ComparisonFolder(folder)
+        results = comparison.results()
+        env_id, threshold = comparison.read_meta()
         for algo, algo_df in results.groupby("algo", sort=False):
             if (env_id, str(algo)) not in seen:
                 seen.add((env_id, str(algo)))
@@ -275,7 +252,7 @@ def summary_table(
     One row per algorithm: the comparison's figures over seeds (deterministic evaluation returns).
 
     :param results: The rows of ``results.csv``
-    :param summaries: :func:`load_summaries`'s result (for steps/s and peak memory)
+    :param summaries: The finished runs' summaries, ``ComparisonFolder.load_summaries()`` (for steps/s and memory)
     :param threshold: The solve threshold (None: no threshold columns)
     :param compact: Short headers and medians without IQR (the terminal's table); else ``summary.md``'s
     :return: A table of strings, ready to print

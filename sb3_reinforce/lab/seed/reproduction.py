@@ -26,15 +26,15 @@ import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.monitor import Monitor
 
-from sb3_reinforce.lab.compare.runner import process_tree_rss_mb
 from sb3_reinforce.lab.extras import check_env_id
+from sb3_reinforce.lab.resource_use import process_tree_rss_mb
 from sb3_reinforce.lab.seed.envs import make_seed_env
 from sb3_reinforce.lab.seed.presets import seed_hyperparams
 from sb3_reinforce.reinforce import REINFORCE
 from sb3_reinforce.reinforce.buffers import RolloutLimitError
 
 if TYPE_CHECKING:
-    from sb3_reinforce.lab.compare.cluster import RunChannel
+    from sb3_reinforce.lab.cluster import RunChannel
 
 __all__ = ["EPISODE_COLUMNS", "RewardFloor", "build_parser", "main", "run_seed"]
 
@@ -260,7 +260,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> None:
     """Command line entry point (see the module docstring)."""
     # The compare extra's modules, imported before anything is written
-    from sb3_reinforce.lab.compare.cluster import Job, JobResult, open_client, run_jobs, sigterm_as_interrupt
+    from sb3_reinforce.lab.cluster import Job, JobResult, open_client, run_jobs, sigterm_as_interrupt
     from sb3_reinforce.lab.seed.summary import render_seed
 
     parser = build_parser()

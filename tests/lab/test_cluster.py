@@ -22,8 +22,7 @@ import psutil
 import pytest
 from distributed import Client
 
-from sb3_reinforce.lab.compare.figures import PER_RUN_DIR
-from sb3_reinforce.lab.compare.runner import RESULT_COLUMNS
+from sb3_reinforce.lab.compare.folder import PER_RUN_DIR, RESULT_COLUMNS
 
 REPO = Path(__file__).resolve().parents[2]
 DASK = str(Path(sys.executable).parent / "dask")
@@ -323,7 +322,7 @@ def test_a_worker_with_another_package_is_named(tmp_path: Path) -> None:
 
 def test_the_local_cluster_starts_its_workers_for_runs(monkeypatch: pytest.MonkeyPatch) -> None:
     # The command's own cluster: not Dask's MALLOC_TRIM_THRESHOLD_=65536 (2x slower CarRacing training), not daemonic
-    from sb3_reinforce.lab.compare.cluster import open_client
+    from sb3_reinforce.lab.cluster import open_client
 
     monkeypatch.setenv("MALLOC_TRIM_THRESHOLD_", "")  # as in a fresh command: not left here by another test's nanny
     monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_")
@@ -336,7 +335,7 @@ def test_two_local_clusters_at_once_share_no_port() -> None:
     # second would warn that it is in use), and both listen on 127.0.0.1 only
     import warnings
 
-    from sb3_reinforce.lab.compare.cluster import open_client
+    from sb3_reinforce.lab.cluster import open_client
 
     with warnings.catch_warnings(record=True) as caught, open_client(None, 1, 1), open_client(None, 1, 1):
         warnings.simplefilter("always")
@@ -351,7 +350,7 @@ def test_a_resumed_runs_checkpoint_is_not_in_the_task_graph() -> None:
     # not carry them too (Dask warned of a large graph on each resumed CarRacing run)
     import warnings
 
-    from sb3_reinforce.lab.compare.cluster import Job, JobResult, open_client, run_jobs
+    from sb3_reinforce.lab.cluster import Job, JobResult, open_client, run_jobs
 
     def restored_size(channel: Any) -> tuple[int, bytes]:  # on the worker, in the run's folder
         data = (channel.folder / "run.checkpoint.zip").read_bytes()
@@ -378,7 +377,7 @@ def test_runs_are_submitted_as_cpus_free_up() -> None:
     # One long run and four short ones on two workers of one CPU each: the short ones all go to the worker that is free,
     # one after another, as a pool would run them. Submitted all at once, Dask shared them out up front (a task with
     # resources skips its queue), and the worker of the long run had short runs left when the other was done.
-    from sb3_reinforce.lab.compare.cluster import Job, JobResult, open_client, run_jobs
+    from sb3_reinforce.lab.cluster import Job, JobResult, open_client, run_jobs
 
     results: dict[str, JobResult] = {}
     jobs = [Job("long", _sleep, (4.0,), 1, "none"), *(Job(f"short{i}", _sleep, (0.5,), 1, "none") for i in range(4))]

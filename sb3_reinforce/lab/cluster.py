@@ -368,6 +368,56 @@ def _execute(job: Job, token: str) -> JobResult | None:
     return result
 
 
+class _Submissions:
+    """
+    The runs of one :func:`run_jobs` call: those waiting, in the given (seed-major) order, and those submitted.
+
+    Dask assigns a task that asks for resources to a worker when it is submitted (its scheduler-side queuing skips such
+    tasks: distributed 2026.8.0), so submitting every run at once left workers idle at the end while runs queued on
+    busy ones. Runs are therefore submitted one at a time, each once the cluster's CPUs have room for it.
+    """
+
+    def __init__(self, client: Client, jobs: Sequence[Job], token: str) -> None:
+        self.client = client
+        self.token = token
+        self.waiting = list(jobs)
+        self.cpus = {job.name: job.cpus for job in jobs}
+        self.names: dict[Any, str] = {}  # future -> run name
+        self.pending: set[Any] = set()
+
+    def submit_what_fits(self) -> None:
+        """Submit the next waiting runs while the cluster's lent CPUs have room for them (always one, if none runs)."""
+        if not self.waiting:
+            return
+        lent = sum(float(info.get("resources", {}).get(CPU_RESOURCE, 0)) for info in _workers(self.client).values())
+        busy = sum(self.cpus[self.names[future]] for future in self.pending)
+        while self.waiting and (not self.pending or busy + self.waiting[0].cpus <= lent):
+            job = self.waiting.pop(0)
+            future = self.client.submit(
+                _execute,
+                replace(job, files={}),  # they travel in its Variable (not twice, nor in the task graph)
+                self.token,
+                key=f"{job.name}-{self.token}",
+                resources={CPU_RESOURCE: job.cpus},
+                retries=RUN_RETRIES,
+                pure=False,
+            )
+            self.names[future] = job.name
+            self.pending.add(future)
+            busy += job.cpus
+
+    def done(self) -> list[tuple[str, Any]]:
+        """The runs that ended since the last call: (name, future)."""
+        ended = [future for future in self.pending if future.done()]
+        self.pending.difference_update(ended)
+        return [(self.names[future], future) for future in ended]
+
+
+def _failure(error: BaseException) -> str:
+    """A failed run's one-line reason."""
+    return f"{type(error).__name__}: {str(error).strip().splitlines()[0] if str(error) else ''}"
+
+
 def run_jobs(
     client: Client,
     jobs: Sequence[Job],
@@ -390,58 +440,29 @@ def run_jobs(
         variable.set(job.files)
     messages = Queue(_queue_name(token), client=client)
     stop = Event(_stop_name(token), client=client)
-    waiting = list(jobs)  # not submitted yet, in the given (seed-major) order
-    cpus = {job.name: job.cpus for job in jobs}
-    futures: dict[Any, str] = {}
+    submissions = _Submissions(client, jobs, token)
     failures: dict[str, str] = {}
     finished: set[str] = set()
-    pending: set[Any] = set()
-
-    def submit_what_fits() -> None:
-        # Submit the next run in order once the cluster has CPUs free for it: Dask assigns tasks with resources at
-        # submission (its queuing skips them: distributed 2026.8.0), which left workers idle at the end.
-        if not waiting:
-            return
-        lent = sum(float(info.get("resources", {}).get(CPU_RESOURCE, 0)) for info in _workers(client).values())
-        busy = sum(cpus[futures[future]] for future in pending)
-        while waiting and (not pending or busy + waiting[0].cpus <= lent):
-            job = waiting.pop(0)
-            future = client.submit(
-                _execute,
-                replace(job, files={}),  # they travel in its Variable (not twice, nor in the task graph)
-                token,
-                key=f"{job.name}-{token}",
-                resources={CPU_RESOURCE: job.cpus},
-                retries=RUN_RETRIES,
-                pure=False,
-            )
-            futures[future] = job.name
-            pending.add(future)
-            busy += job.cpus
-
     try:
-        submit_what_fits()
-        while pending:
+        submissions.submit_what_fits()
+        while submissions.pending:
             with contextlib.suppress(TimeoutError):
-                wait(list(pending), timeout=0.5, return_when="FIRST_COMPLETED")
+                wait(list(submissions.pending), timeout=0.5, return_when="FIRST_COMPLETED")
             for name, steps, files in messages.get(batch=True):
                 if name not in finished:  # a finished run's files are its result's
                     on_files(name, int(steps), files)
-            for future in [f for f in pending if f.done()]:
-                pending.remove(future)
-                name = futures[future]
+            for name, future in submissions.done():
                 finished.add(name)
                 if future.status == "error":
-                    error = future.exception()
-                    failures[name] = f"{type(error).__name__}: {str(error).strip().splitlines()[0] if str(error) else ''}"
+                    failures[name] = _failure(future.exception())
                 elif (result := future.result()) is not None:  # None: stopped (by another command of this token)
                     on_result(name, result)
-            submit_what_fits()
+            submissions.submit_what_fits()
     except BaseException:
         stop.set()  # running runs stop within STOP_CHECK_S, their last files already sent
         with contextlib.suppress(Exception):
-            wait(list(pending), timeout=5 * STOP_CHECK_S + 5)
-        client.cancel(list(pending))
+            wait(list(submissions.pending), timeout=5 * STOP_CHECK_S + 5)
+        client.cancel(list(submissions.pending))
         raise
     finally:
         for variable in variables:
