@@ -21,7 +21,10 @@ from pathlib import Path
 
 from value_steps_cost import appending_rows
 
+from sb3_reinforce.lab.compare.folder import ComparisonFolder, RunSpec
+
 RESULTS = Path(__file__).parent / "results" / "malloc_trim.csv"
+
 COLUMNS = ["env_id", "vec_env", "malloc_trim_threshold", "repeat", "load_1min", "steps", "train_s", "steps_per_s"]
 SETTINGS = ("unset", "65536")
 
@@ -44,7 +47,8 @@ def measure(env_id: str, vec_env: str, steps: int, setting: str) -> tuple[int, f
     with tempfile.TemporaryDirectory() as out:
         args = [sys.executable, "-c", CHILD, env_id, vec_env, str(steps), out]
         subprocess.run(args, env=env, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        with open(Path(out) / "per_run" / "reinforce_seed0.csv", newline="") as file:
+        spec = RunSpec(env_id, "reinforce", 0, steps, steps, 1)  # the child's run
+        with open(ComparisonFolder(Path(out)).evaluations_path(spec), newline="") as file:
             last = list(csv.DictReader(file))[-1]
     return int(last["steps"]), float(last["wall_time_s"])
 

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from sb3_reinforce.lab.compare.folder import ComparisonFolder
 from sb3_reinforce.lab.stats import first_crossing
 
 
@@ -29,7 +30,7 @@ def read_results(folder: Path) -> pd.DataFrame:
     """A comparison folder's evaluations: its ``results.csv``, or else its ``per_run/*.csv`` (a study trial's)."""
     if (folder / "results.csv").is_file():
         return pd.read_csv(folder / "results.csv")
-    per_run = sorted((folder / "per_run").glob("*.csv"))
+    per_run = sorted(ComparisonFolder(folder).runs_dir.glob("*.csv"))  # a trial's: finished or not
     if not per_run:
         raise FileNotFoundError(f"{folder} has neither results.csv nor per_run/*.csv")
     return pd.concat([pd.read_csv(path) for path in per_run], ignore_index=True)

@@ -33,7 +33,7 @@ import pandas as pd
 import yaml
 
 from sb3_reinforce.lab.compare.command import runs_to_do
-from sb3_reinforce.lab.compare.folder import PER_RUN_DIR, RunSpec
+from sb3_reinforce.lab.compare.folder import ComparisonFolder, RunSpec
 from sb3_reinforce.lab.compare.runner import run
 from sb3_reinforce.lab.zoo.hyperparams_opt import suggest_reinforce_params, zoo_entry
 from sb3_reinforce.reinforce.buffers import RolloutLimitError
@@ -70,7 +70,7 @@ def build_objective(args: argparse.Namespace, base: dict[str, Any]) -> Any:
                     run(spec, trial_dir)
             except (FloatingPointError, RolloutLimitError) as error:  # a non-finite update, an endless episode
                 raise optuna.TrialPruned(f"seed {seed}: {error}") from error
-            scores.append(score_run(trial_dir / PER_RUN_DIR / f"{spec.name}.csv", args.score_last))
+            scores.append(score_run(ComparisonFolder(trial_dir).evaluations_path(spec), args.score_last))
             trial.set_user_attr("seed_scores", scores)
             trial.report(float(np.mean(scores)), index)
             if index < len(args.seeds) - 1 and trial.should_prune():

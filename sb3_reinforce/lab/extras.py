@@ -1,13 +1,15 @@
-"""One-line errors for a missing optional extra and an unregistered environment id."""
+"""One-line errors for a missing optional extra and an unregistered environment id; the user's env packages."""
 
 import contextlib
 import difflib
+import importlib
+import os
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 
 import gymnasium as gym
 
-__all__ = ["EXTRA_MODULES", "check_env_id", "missing_extra"]
+__all__ = ["EXTRA_MODULES", "check_env_id", "import_gym_packages", "missing_extra"]
 
 #: The top-level modules each optional extra installs.
 EXTRA_MODULES = {
@@ -52,3 +54,20 @@ def check_env_id(env_id: str) -> None:
     close = difflib.get_close_matches(env_id, list(gym.envs.registry), n=3)
     hint = f" Did you mean {' or '.join(close)}?" if close else ""
     raise ValueError(f"Unknown environment {env_id!r}: not in the Gymnasium registry.{hint}")
+
+
+def import_gym_packages(modules: Sequence[str]) -> None:
+    """
+    Import the modules that register the user's environments (rl_zoo3's ``--gym-packages``), looking in the current
+    folder too, as ``python -m`` does.
+
+    :param modules: Module names (``my_package.envs``)
+    :raises ValueError: naming a module that cannot be imported
+    """
+    if modules and os.getcwd() not in sys.path and "" not in sys.path:
+        sys.path.insert(0, os.getcwd())
+    for module in modules:
+        try:
+            importlib.import_module(module)
+        except ImportError as error:
+            raise ValueError(f"--gym-packages: cannot import {module!r} ({error})") from None

@@ -18,7 +18,7 @@ from sb3_reinforce.version import __version__
 
 __all__ = ["NUMERIC_KEYS", "code_version", "differences", "system_info"]
 
-#: The entries of :func:`system_info` that decide a run's numbers (the OS string and GPU flag left out).
+#: The entries of :func:`system_info` that decide a run's numbers (the OS string, GPU flag and cloudpickle left out).
 NUMERIC_KEYS = (
     "Python",
     "Stable-Baselines3",
@@ -87,8 +87,8 @@ def system_info() -> dict[str, str]:
 
 def differences(systems: list[dict[str, str]]) -> dict[str, list[str]]:
     """
-    The :data:`NUMERIC_KEYS` on which ``systems`` differ, with the values seen (a run recorded without one: "not
-    recorded").
+    The :data:`NUMERIC_KEYS` on which ``systems`` differ, with the values seen ("not recorded": a system without
+    that key).
 
     :param systems: The runs' :func:`system_info`
     :return: ``{key: sorted distinct values}`` for each key with more than one value

@@ -55,19 +55,28 @@ def render(out_dir: Path) -> str:
 def system_differences(folders: list[Path]) -> str | None:
     """
     Where the finished runs of comparison folders were made under different versions, CPU types or torch threads
-    (their summaries' ``system``), one line saying which: such runs are not reproducible bit for bit from one another.
+    (their summaries' ``system``, or each part's for a resumed run), one line saying which: such runs are not
+    reproducible bit for bit from one another. Runs made before systems were recorded are counted, not compared.
 
     :param folders: Comparison folders
     :return: The line, or None where every run recorded the same (or none recorded any)
     """
-    systems = [
-        summary.get("system", {}) for folder in folders for summary in ComparisonFolder(folder).load_summaries().values()
-    ]
+    summaries = [summary for folder in folders for summary in ComparisonFolder(folder).load_summaries().values()]
+    # a resumed run records each part's system (None: a part made before systems were recorded)
+    parts = [summary.get("systems", [summary.get("system")]) for summary in summaries]
+    systems = [system for run in parts for system in run if system is not None]
+    unrecorded = sum(any(system is None for system in run) for run in parts)
+    notes = []
     found = differences(systems)
-    if not found:
-        return None
-    listed = "; ".join(f"{key}: {', '.join(values)}" for key, values in found.items())
-    return f"Note: these runs were made under different {', '.join(found)} ({listed})"
+    if found:
+        listed = "; ".join(f"{key}: {', '.join(values)}" for key, values in found.items())
+        notes.append(f"these runs were made under different {', '.join(found)} ({listed})")
+    if unrecorded and systems:
+        notes.append(
+            f"{unrecorded} of {len(parts)} runs recorded no system (made before it was recorded): whether they were "
+            "made under the same versions and CPU type is unknown"
+        )
+    return "Note: " + "; ".join(notes) if notes else None
 
 
 def write_between_markers(path: Path, marker: str, text: str) -> bool:

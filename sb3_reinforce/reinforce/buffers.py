@@ -162,6 +162,15 @@ class EpisodeRolloutBuffer(BaseBuffer):
         return int(self.env_steps.sum())
 
     @property
+    def longest_column(self) -> int:
+        """Rows written in the fullest environment's column (its finished and running episodes)."""
+        return self._longest
+
+    def running_steps(self) -> np.ndarray:
+        """Each environment's running episode's steps so far, ``(n_envs,)``."""
+        return self._env_steps - self.finished_steps
+
+    @property
     def is_full(self) -> bool:
         """Whether the finished episodes make a batch (``n_episodes`` of them and ``min_steps`` steps)."""
         return self.n_finished_episodes >= self.n_episodes and int(self.finished_steps.sum()) >= self.min_steps
@@ -171,8 +180,8 @@ class EpisodeRolloutBuffer(BaseBuffer):
             longest = int(self.env_steps.max())
             raise RolloutLimitError(
                 f"The rollout buffer holds {self.size()} transitions ({longest} steps in one environment) "
-                f"and reached max_steps={self.max_steps} before {self.n_episodes} episode(s) finished. "
-                "REINFORCE learns from whole episodes: give the environment a time limit "
+                f"and reached its limit, max_rollout_steps={self.max_steps}, before {self.n_episodes} episode(s) "
+                "finished. REINFORCE learns from whole episodes: give the environment a time limit "
                 "(e.g. gymnasium.wrappers.TimeLimit or `max_episode_steps`), or raise `max_rollout_steps`."
             )
         new_capacity = min(2 * self.capacity, self.max_rows)

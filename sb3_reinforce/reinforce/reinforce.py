@@ -1,6 +1,7 @@
 import inspect
 import math
 import os
+import warnings
 from collections.abc import Callable, Mapping
 from numbers import Integral, Real
 from typing import Any, ClassVar, TypeVar
@@ -149,6 +150,9 @@ class REINFORCE(OnPolicyAlgorithm):
         if _init_setup_model:
             self._setup_model()
 
+    #: A running episode this long, as a share of ``max_rollout_steps`` per environment, is warned about.
+    long_episode_share: ClassVar[float] = 0.1
+
     def _setup_model(self) -> None:
         _check_spaces(self.observation_space, self.action_space)
         if self.baseline == "loo" and self.n_episodes * self.n_envs < 2:
@@ -259,6 +263,8 @@ class REINFORCE(OnPolicyAlgorithm):
         sampler = self.policy.fast_sampler() if isinstance(self.policy, ReinforcePolicy) else None
 
         callback.on_rollout_start()
+        long_episode = max(1, int(self.long_episode_share * rollout_buffer.max_rows))
+        check_at = long_episode
 
         while not rollout_buffer.is_full:
             if self.use_sde and self.sde_sample_freq > 0 and n_steps % self.sde_sample_freq == 0:
@@ -298,6 +304,9 @@ class REINFORCE(OnPolicyAlgorithm):
             rollout_buffer.add(self._last_obs, actions, rewards, dones)
             self._last_obs = new_obs
             self._last_episode_starts = dones
+            if rollout_buffer.longest_column >= check_at:  # a few checks per rollout: at 1, 2, 4, ... times the length
+                check_at *= 2
+                self._warn_of_long_episodes(env, rollout_buffer, long_episode)
 
             callback.update_locals(locals())
             if not callback.on_step():
@@ -308,11 +317,51 @@ class REINFORCE(OnPolicyAlgorithm):
         callback.on_rollout_end()
         return True
 
+    def _warn_of_long_episodes(self, env: VecEnv, rollout_buffer: EpisodeRolloutBuffer, long_episode: int) -> None:
+        """Warn of an episode running for ``long_episode`` steps or more: REINFORCE waits for it to end."""
+        running = rollout_buffer.running_steps()
+        index = int(np.argmax(running))
+        if running[index] < long_episode:
+            return
+        try:
+            spec = env.get_attr("spec", indices=[index])[0]
+        except Exception:  # a VecEnv that cannot tell
+            spec = None
+        where = f"environment {index} of {env.num_envs}"
+        name = f"{spec.id} ({where})" if getattr(spec, "id", None) else where.capitalize()
+        warnings.warn(
+            f"{name} has run one episode for {running[index]:,} steps without "
+            f"ending it. REINFORCE learns from whole episodes: if its episodes may never end, give it a time limit "
+            f"(gymnasium.wrappers.TimeLimit, or `max_episode_steps` when registering it); at max_rollout_steps="
+            f"{self.max_rollout_steps:,} transitions the rollout stops with RolloutLimitError.",
+            stacklevel=2,
+        )
+
+    def _check_batch_is_finite(self) -> None:
+        """
+        Refuse a batch whose rewards or observations hold NaN or inf, before any update: the environment gave them.
+
+        :raises FloatingPointError: naming what is non-finite and where; the weights are unchanged
+        """
+        buffer = self.rollout_buffer
+        batch = {"reward": buffer.rewards, **_float_arrays(buffer.observations, "observation")}
+        for what, values in batch.items():
+            finite = np.isfinite(values).reshape(len(values), -1).all(axis=1)
+            if not finite.all():
+                first = int(np.argmin(finite))
+                raise FloatingPointError(
+                    f"The environment returned a non-finite {what} ({(~finite).sum()} of the batch's {len(values)} "
+                    f"steps, the first at step {first} of the batch, timestep {self.num_timesteps}): the update was "
+                    "skipped and the weights are unchanged. Check the environment: wrap it in SB3's VecCheckNan, or "
+                    "train with sb3_reinforce.safeguards.CheckFinite, to name the step and action that produced it."
+                )
+
     def train(self) -> None:
         """One gradient step of the policy on the batch of whole episodes (then the ``n_value_steps`` value steps)."""
         # Switch to train mode (this affects batch norm / dropout)
         self.policy.set_training_mode(True)
         self._update_learning_rate(self.policy.optimizer)
+        self._check_batch_is_finite()
 
         batch = next(self.rollout_buffer.get(batch_size=None))
         actions = batch.actions
@@ -444,6 +493,16 @@ class REINFORCE(OnPolicyAlgorithm):
             reset_num_timesteps=reset_num_timesteps,
             progress_bar=progress_bar,
         )
+
+
+def _float_arrays(observations: Any, name: str) -> dict[str, np.ndarray]:
+    """The floating-point arrays of a batch's observations (an array, or a dict of them), by name."""
+    arrays = observations.items() if isinstance(observations, dict) else [(None, observations)]
+    return {
+        name if key is None else f"{name} {key!r}": array
+        for key, array in arrays
+        if np.issubdtype(np.asarray(array).dtype, np.floating)
+    }
 
 
 def hyperparameter_defaults() -> dict[str, Any]:

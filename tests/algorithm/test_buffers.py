@@ -1,5 +1,8 @@
 """The full-episode rollout buffer: whole episodes, carried-over running episodes, bounded memory."""
 
+import warnings
+
+import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium import spaces
@@ -115,11 +118,33 @@ def test_memory_is_proportional_to_batch_not_training_length() -> None:
 
 
 def test_endless_episode_hits_clear_error() -> None:
+    # Warned of once an episode has run for a tenth of the limit (issue 62: not a silent million steps), then the
+    # error names the constructor's argument
     env = DummyVecEnv([lambda: CountingEnv(0, (10**9,))])
     model = REINFORCE("MlpPolicy", env, max_rollout_steps=500, seed=0)
-    with pytest.raises(RolloutLimitError, match=r"max_rollout_steps|time limit"):
+    with (
+        pytest.warns(UserWarning, match="Environment 0 of 1 has run one episode for 50 steps") as warned,
+        pytest.raises(RolloutLimitError, match=r"its limit, max_rollout_steps=500, .* give the environment a time limit"),
+    ):
         model.learn(10_000)
     assert model.rollout_buffer.size() <= 500
+    assert "max_rollout_steps=500 transitions" in str(warned[0].message)
+
+
+def test_long_episodes_of_a_named_env_are_warned_about_once_per_length() -> None:
+    # A registered env without a time limit is named; episodes that end are never warned about
+    env = DummyVecEnv([lambda: gym.make("CartPole-v1", max_episode_steps=-1)])  # -1: without its TimeLimit
+    assert env.env_is_wrapped(gym.wrappers.TimeLimit) == [False]
+    model = REINFORCE("MlpPolicy", env, max_rollout_steps=100, seed=0)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model.learn(300)  # CartPole's untrained episodes last about 10-40 steps: some reach 10
+    messages = [str(w.message) for w in caught if "has run one episode" in str(w.message)]
+    assert messages and all(m.startswith("CartPole-v1 (environment 0 of 1)") for m in messages)
+    quiet = REINFORCE("MlpPolicy", DummyVecEnv([lambda: CountingEnv(0, (5,))]), max_rollout_steps=100, seed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        quiet.learn(300)  # episodes of 5 steps, under the tenth (10)
 
 
 def test_min_steps_extends_batch_with_whole_episodes() -> None:

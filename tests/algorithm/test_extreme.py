@@ -123,7 +123,7 @@ def test_never_ending_episode_hits_the_cap() -> None:
     from sb3_reinforce import RolloutLimitError
 
     model = REINFORCE("MlpPolicy", DummyVecEnv([lambda: ScaledEnv(10**9)]), max_rollout_steps=5_000, seed=0)
-    with pytest.raises(RolloutLimitError, match="max_steps=5000"):
+    with pytest.raises(RolloutLimitError, match="max_rollout_steps=5000"):  # the argument, by its name (issue 62)
         model.learn(10_000)
     assert model.rollout_buffer.capacity <= 5_000
 

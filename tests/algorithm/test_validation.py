@@ -79,7 +79,9 @@ def test_non_finite_env_output_raises(what: str, check_finite: bool) -> None:
         with pytest.raises(NonFiniteError, match=f"Environment 0 returned a non-finite {what.replace('obs', 'observation')}"):
             model.learn(2000, callback=CheckFinite())
     else:
-        with pytest.raises(FloatingPointError, match="weights are unchanged"):
+        # named as the environment's output, before any advice about learning rates (issue 62)
+        named = f"The environment returned a non-finite {what.replace('obs', 'observation')}"
+        with pytest.raises(FloatingPointError, match=f"{named} .*weights are unchanged. Check the environment"):
             model.learn(2000)
     assert all(th.equal(a, b) for a, b in zip(before, model.policy.parameters(), strict=True))
 

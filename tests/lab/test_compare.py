@@ -286,6 +286,9 @@ def test_tiny_compare_with_env_kwargs(tmp_path: Path) -> None:
 
 # ---------------------------------------------------------------- bad input: clear errors before training
 
+#: A REINFORCE file with one entry and no `default` one (zoo_configs/reinforce.yml has a default entry)
+ACROBOT_ONLY = str(Path(__file__).parents[2] / "benchmarks" / "configs" / "reinforce_acrobot_value20.yml")
+
 
 @pytest.mark.parametrize(
     "args, message",
@@ -303,11 +306,11 @@ def test_tiny_compare_with_env_kwargs(tmp_path: Path) -> None:
         (["--device", "xla"], "device must be cpu, cuda, cuda:N, mps or auto"),
         (["--device", "cuda:99"], "device 'cuda:99': PyTorch"),  # a GPU this machine lacks, whatever it has
         (
-            ["--env", "MountainCarContinuous-v0", "--algos", "reinforce"],
-            "has no entry for MountainCarContinuous-v0 (it has: Acrobot-v1, ",  # the list: tests/lab/test_zoo.py
+            ["--env", "MountainCarContinuous-v0", "--algos", "reinforce", "--reinforce-config", ACROBOT_ONLY],
+            "has no entry for MountainCarContinuous-v0 (it has: Acrobot-v1)",  # a file without a default entry
         ),
         (
-            ["--env", "MountainCarContinuous-v0", "--algos", "reinforce"],
+            ["--env", "MountainCarContinuous-v0", "--algos", "reinforce", "--reinforce-config", ACROBOT_ONLY],
             "Add one, or pass another file with --reinforce-config.",  # compare's flag, not the zoo's -conf
         ),
     ],
@@ -359,8 +362,31 @@ def test_the_plan_names_a_fallback_entry(tmp_path: Path, capsys: pytest.CaptureF
     args = ["--env", "FrozenLake-v1", "--algos", "a2c", "--seeds", "1", "--budget", "50", "--eval-freq", "50"]
     main([*args, "--eval-episodes", "1", "--workers", "1", "--no-progress", "--out", str(tmp_path)])
     out = capsys.readouterr().out
-    assert "a2c.yml has no entry for FrozenLake-v1: rl_zoo3's 'default' entry is used (MlpPolicy, 1 env(s))" in out
+    assert "a2c.yml has no entry for FrozenLake-v1: its 'default' entry is used (MlpPolicy, 1 env(s))" in out
     assert (tmp_path / "results.csv").exists()
+
+
+def test_a_users_own_env_runs_on_the_algorithms_defaults(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # Issue 62: --gym-packages imports the module that registers the user's env, here and in the runs' worker
+    # processes; no zoo file has an entry for it, so each algorithm trains with its file's default entry (REINFORCE's
+    # and PPO's constructor defaults), and the plan and the tables say so
+    out = tmp_path / "out"
+    args = ["--env", "Reach1D-v0", "--gym-packages", "tests.user_env", "--algos", "reinforce,ppo", "--seeds", "1"]
+    args += ["--budget", "2048", "--eval-freq", "1024", "--eval-episodes", "2", "--workers", "1", "--no-progress"]
+    main([*args, "--out", str(out)])
+    printed = capsys.readouterr().out
+    assert "reinforce.yml has no entry for Reach1D-v0: its 'default' entry is used (MlpPolicy, 1 env(s))" in printed
+    assert "ppo.yml has no entry for Reach1D-v0: its 'default' entry is used (MlpPolicy, 1 env(s))" in printed
+    assert "REINFORCE (defaults)" in printed and "PPO (defaults)" in printed  # the terminal's table
+    table = (out / "summary.md").read_text()
+    assert "| REINFORCE (defaults) | 1 |" in table and "| PPO (defaults) | 1 |" in table and "steps to -3" in table
+    summary = json.loads((out / PER_RUN_DIR / "reinforce_seed0.json").read_text())
+    assert summary["zoo_entry"] == "default" and summary["hyperparams"] == {"n_timesteps": "1000000.0", "policy": "MlpPolicy"}
+    # the same env named as module:EnvName-v0, and a module that cannot be imported, named
+    specs, _, _ = parse_specs(build_parser().parse_args(["--env", "tests.user_env:Reach1D-v0", "--algos", "reinforce"]))
+    assert specs[0].entry is not None and specs[0].entry.fallback == "default"
+    with pytest.raises(ValueError, match="--gym-packages: cannot import 'no_such_package'"):
+        parse_specs(build_parser().parse_args(["--env", "Reach1D-v0", "--gym-packages", "no_such_package"]))
 
 
 def test_any_zoo_algorithm_beside_reinforce(tmp_path: Path) -> None:
@@ -459,6 +485,19 @@ def test_each_run_records_its_system_and_the_report_names_differences(
     assert note is not None and f"PyTorch: {versions}" in note and "Numpy" not in note
     render_main([str(first), str(second)])
     assert note in capsys.readouterr().out
+    del recorded["system"]  # a run made before systems were recorded is counted, not compared
+    other.write_text(json.dumps(recorded))
+    assert system_differences([first, second]) == (
+        "Note: 1 of 2 runs recorded no system (made before it was recorded): whether they were made under the same "
+        "versions and CPU type is unknown"
+    )
+
+
+def test_reinforce_config_is_read_only_with_reinforce(tmp_path: Path) -> None:
+    # --reinforce-config left on a command that compares other algorithms is not read
+    args = ["--env", "CartPole-v1", "--algos", "ppo", "--seeds", "1", "--reinforce-config", str(tmp_path / "none.yml")]
+    specs, _, entries = parse_specs(build_parser().parse_args(args))
+    assert [spec.name for spec in specs] == ["ppo_seed0"] and list(entries) == ["ppo"]
 
 
 def test_code_version_without_git(monkeypatch: pytest.MonkeyPatch) -> None:

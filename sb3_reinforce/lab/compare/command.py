@@ -30,14 +30,15 @@ from sb3_reinforce.lab.compare.experiment import (
     DEFAULT_ALGOS,
     VEC_ENV_TYPES,
     ZooEntry,
+    check_where,
     known_algos,
-    read_entries,
     read_entry,
     run_cpus,
 )
 from sb3_reinforce.lab.compare.figures import plot_learning_curves, summary_table, to_markdown
 from sb3_reinforce.lab.compare.folder import ComparisonFolder, RunSpec
 from sb3_reinforce.lab.compare.runner import run
+from sb3_reinforce.lab.extras import import_gym_packages
 from sb3_reinforce.lab.stats import solve_threshold
 
 __all__ = ["build_parser", "main", "parse_specs", "runs_to_do", "write_outputs"]
@@ -61,7 +62,20 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _add_run_arguments(parser: argparse._ArgumentGroup) -> None:
     """The arguments that define the comparison's runs: env, algorithms, seeds, budget, evaluation, output."""
-    parser.add_argument("--env", default="CartPole-v1", help="Gymnasium env id (default: %(default)s)")
+    parser.add_argument(
+        "--env",
+        default="CartPole-v1",
+        help="Gymnasium env id: registered, or registered by a --gym-packages module, or as module:EnvName-v0 "
+        "(default: %(default)s)",
+    )
+    parser.add_argument(
+        "--gym-packages",
+        nargs="+",
+        default=[],
+        metavar="MODULE",
+        help="modules to import first, which register your environments (as rl_zoo3's; the current folder is searched "
+        "too); an algorithm whose zoo file has no entry for the env trains with its 'default' entry, its defaults",
+    )
     parser.add_argument(
         "--algos",
         default=",".join(DEFAULT_ALGOS),
@@ -100,7 +114,7 @@ def _add_run_arguments(parser: argparse._ArgumentGroup) -> None:
 
 
 def _add_execution_arguments(parser: argparse._ArgumentGroup) -> None:
-    """The arguments of where and how the runs train: workers, environment processes, device, cluster, output."""
+    """The arguments of where and how the runs train: workers, environment processes, device, cluster, progress."""
     parser.add_argument(
         "--workers",
         type=int,
@@ -147,7 +161,7 @@ def _parse_threshold(text: str | None, env_id: str) -> float | None:
 
 
 def _check_numbers(args: argparse.Namespace) -> None:
-    """Check the counts of the command line: seeds, first seed, workers, evaluation episodes and frequency."""
+    """Check the counts of the command line: seeds, first seed, workers, evaluation episodes."""
     if args.seeds < 1:
         raise ValueError(f"--seeds must be >= 1, got {args.seeds}")
     if not 0 <= args.first_seed <= MAX_SEED - args.seeds + 1:
@@ -159,8 +173,6 @@ def _check_numbers(args: argparse.Namespace) -> None:
         raise ValueError(f"--workers must be >= 1, got {args.workers}")
     if args.eval_episodes < 1:
         raise ValueError(f"--eval-episodes must be >= 1, got {args.eval_episodes}")
-    if args.eval_freq is not None and args.eval_freq < 1:
-        raise ValueError(f"--eval-freq must be >= 1, got {args.eval_freq}")
 
 
 def _algos(text: str) -> list[str]:
@@ -177,7 +189,7 @@ def _budgets(text: str, env_id: str, entries: dict[str, ZooEntry]) -> dict[str, 
     """Each algorithm's budget from ``--budget``: PPO's zoo budget, each its own, or a number of steps."""
     if text in ("ppo", "zoo"):
         ppo_budget = 0
-        if text == "ppo":  # PPO's entry as it trains on Gymnasium's envs: its budget alone is read
+        if text == "ppo":  # PPO's budget (its entry's n_timesteps, whatever the kind of training environments)
             ppo_budget = (entries["ppo"] if "ppo" in entries else read_entry("ppo", env_id)).n_timesteps
         return {algo: ppo_budget or entry.n_timesteps for algo, entry in entries.items()}
     try:
@@ -189,6 +201,13 @@ def _budgets(text: str, env_id: str, entries: dict[str, ZooEntry]) -> dict[str, 
     return dict.fromkeys(entries, budget)
 
 
+def _env_module(args: argparse.Namespace) -> None:
+    """``--env module:EnvName-v0`` (Gymnasium's form) as ``--env EnvName-v0 --gym-packages module``."""
+    if ":" in args.env:
+        module, args.env = args.env.split(":", 1)
+        args.gym_packages = [*args.gym_packages, module]
+
+
 def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None, dict[str, ZooEntry]]:
     """
     Check the arguments and read every algorithm's zoo entry (once), before anything is trained.
@@ -197,14 +216,19 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None, 
     :return: The runs (finished or not, each with its entry), the solve threshold and each algorithm's zoo entry
     :raises ValueError: on any bad input, with a message saying what to change
     """
+    _env_module(args)
+    import_gym_packages(args.gym_packages)
+    check_where(args.env, args.vec_env, args.device, here=args.scheduler is None)
     algos = _algos(args.algos)
     _check_numbers(args)
-    configs: dict[str, Path | None] = dict.fromkeys(algos)
-    if args.reinforce_config is not None:
-        configs["reinforce"] = args.reinforce_config
-    entries = read_entries(args.env, configs, args.vec_env, args.device, here=args.scheduler is None)
     threshold = _parse_threshold(args.threshold, args.env)
+    configs: dict[str, Path | None] = dict.fromkeys(algos)
+    if args.reinforce_config is not None and "reinforce" in configs:
+        configs["reinforce"] = args.reinforce_config
+    entries = {algo: read_entry(algo, args.env, config, args.vec_env) for algo, config in configs.items()}
     budgets = _budgets(args.budget, args.env, entries)
+    if args.eval_freq is not None and args.eval_freq < 1:
+        raise ValueError(f"--eval-freq must be >= 1, got {args.eval_freq}")
     eval_freqs = {algo: args.eval_freq or max(1, budgets[algo] // DEFAULT_EVALS_PER_RUN) for algo in algos}
     config_names = {algo: None if path is None else str(path) for algo, path in configs.items()}
     # Seed-major order: a stopped command's finished runs compare all algorithms on the same seeds
@@ -221,8 +245,16 @@ def runs_to_do(specs: list[RunSpec], out_dir: Path) -> list[RunSpec]:
     return ComparisonFolder(out_dir).runs_to_do(specs)
 
 
-def _train(channel: RunChannel, spec: RunSpec, vec_env: str, device: str = "cpu") -> dict[str, Any]:
+def config_of(spec: RunSpec) -> Path | None:
+    """A run's zoo yml (None: its algorithm's default)."""
+    return None if spec.config_path is None else Path(spec.config_path)
+
+
+def _train(
+    channel: RunChannel, spec: RunSpec, vec_env: str, device: str = "cpu", gym_packages: tuple[str, ...] = ()
+) -> dict[str, Any]:
     """On a worker: train ``spec`` in the run's folder there, sending its files back after each evaluation."""
+    import_gym_packages(gym_packages)  # the worker's process registers the user's envs too
     return run(spec, channel.folder, progress=channel.send, vec_env=vec_env, heartbeat=channel.check_stop, device=device)
 
 
@@ -237,8 +269,8 @@ def _run_all(todo: list[RunSpec], folder: ComparisonFolder, args: argparse.Names
         Job(
             spec.name,
             _train,
-            (spec, args.vec_env, args.device),
-            run_cpus(spec.entry.n_envs if spec.entry is not None else 1, args.vec_env),
+            (spec, args.vec_env, args.device, tuple(args.gym_packages)),
+            run_cpus((spec.entry or read_entry(spec.algo, spec.env_id, config_of(spec), args.vec_env)).n_envs, args.vec_env),
             folder.run_files_pattern(spec),
             folder.run_files(spec),
         )
@@ -314,7 +346,7 @@ def _announce(specs: list[RunSpec], todo: list[RunSpec], folder: ComparisonFolde
         entry = spec.entry
         if entry is not None and entry.fallback is not None:
             print(
-                f"    {entry.source.name} has no entry for {spec.env_id}: rl_zoo3's {entry.fallback!r} entry is used "
+                f"    {entry.source.name} has no entry for {spec.env_id}: its {entry.fallback!r} entry is used "
                 f"({entry.hyperparams.get('policy')}, {entry.n_envs} env(s)), not tuned for this environment"
             )
 
@@ -323,6 +355,7 @@ def main(argv: list[str] | None = None) -> None:
     """Command line entry point (see the module docstring)."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    _env_module(args)
     folder = ComparisonFolder(args.out or Path("runs") / "compare" / args.env)
     try:
         specs, threshold, _ = parse_specs(args)

@@ -31,8 +31,8 @@ __all__ = [
     "build_run",
     "check_device",
     "check_vec_env",
+    "check_where",
     "known_algos",
-    "read_entries",
     "read_entry",
     "run_cpus",
 ]
@@ -195,24 +195,20 @@ def read_entry(algo: str, env_id: str, config: Path | None = None, vec_env: str 
     return _entry(manager, algo, env_id, saved)
 
 
-def read_entries(
-    env_id: str, configs: dict[str, Path | None], vec_env: str = "dummy", device: str = "cpu", here: bool = True
-) -> dict[str, ZooEntry]:
+def check_where(env_id: str, vec_env: str = "dummy", device: str = "cpu", here: bool = True) -> None:
     """
-    Check, before anything is built, that the runs can train where and as asked, and read each algorithm's entry.
+    Check, before anything is built, that runs of ``env_id`` can train as asked: a registered env, a ``vec_env`` that
+    can step it, a ``device`` there is.
 
-    :param env_id: The environment id (registered, see :func:`~sb3_reinforce.lab.extras.check_env_id`)
-    :param configs: Each algorithm's yml file (None: its default, as :func:`read_entry`)
+    :param env_id: The environment id (its packages imported first)
     :param vec_env: How the training environments will be stepped, one of :data:`VEC_ENV_TYPES`
     :param device: Where the networks will compute, see :func:`check_device`
     :param here: Whether the runs train on this machine (see :func:`check_device`)
-    :return: Each algorithm's entry
-    :raises ValueError: an unknown env, vec_env or device, or any error of :func:`read_entry`
+    :raises ValueError: naming what to change
     """
-    check_device(device, here)
     check_env_id(env_id)
     check_vec_env(vec_env, env_id)
-    return {algo: read_entry(algo, env_id, config, vec_env) for algo, config in configs.items()}
+    check_device(device, here)
 
 
 def _entry(manager: Any, algo: str, env_id: str, saved: dict[str, Any]) -> ZooEntry:

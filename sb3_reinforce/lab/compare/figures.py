@@ -63,6 +63,14 @@ def _median_iqr(values: Sequence[float], fmt: str = "{:,.0f}") -> str:
     return f"{show(median)} [{show(q25)}, {show(q75)}] ({reached}/{len(values)} reached)"
 
 
+def _entry_note(algo: object, summaries: dict[tuple[str, int], dict]) -> str:
+    """`` (defaults)`` for an algorithm that trained with its zoo file's ``default`` entry (none for the env), else ``""``."""
+    entries = {summary.get("zoo_entry") for (name, _), summary in summaries.items() if name == algo}
+    if "default" in entries:
+        return " (defaults)"
+    return " ('atari' entry)" if "atari" in entries else ""
+
+
 def _median(values: Sequence[float], fmt: str) -> str:
     """The median over seeds of steps or seconds to the threshold, not-reached seeds counted as infinitely late."""
     median = quantile_with_inf(list(values), 0.5) if len(values) else np.inf
@@ -263,7 +271,7 @@ def summary_table(
         finals = _finals(per_seed, "mean_return")
         low, high = bootstrap_ci(finals, iqm)
         row = {
-            "algorithm": _display_name(algo),
+            "algorithm": _display_name(algo) + _entry_note(algo, summaries),
             "seeds": len(per_seed),
             "steps": f"{int(np.median([df['steps'].iloc[-1] for df in per_seed])):,}",
             "final IQM [95% CI]" if compact else "final score, IQM [95% CI]": f"{iqm(finals):.1f} [{low:.1f}, {high:.1f}]",

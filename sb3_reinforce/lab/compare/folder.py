@@ -10,7 +10,7 @@ specification is. The command, the runner, the report and the tables read and wr
     OUT/results.csv, summary.csv, summary.md, learning_curve.png
                                          rebuilt from the finished runs
 
-A run interrupted after its first evaluation resumes from its checkpoint when run again with the same settings
+A run interrupted after its first evaluation past step 0 resumes from its checkpoint when run again with the same settings
 (weights, optimizer, steps and schedules kept; running episodes lost, so its curve differs, see
 ``resumed_at_steps``).
 """
@@ -35,7 +35,7 @@ from sb3_reinforce.safeguards import load_with_random_state, save_with_random_st
 if TYPE_CHECKING:
     from sb3_reinforce.lab.compare.experiment import ZooEntry
 
-__all__ = ["PER_RUN_DIR", "RESULT_COLUMNS", "Checkpoint", "ComparisonFolder", "RunSpec", "write_replacing"]
+__all__ = ["PER_RUN_DIR", "RESULT_COLUMNS", "Checkpoint", "ComparisonFolder", "RunSpec"]
 
 #: Subfolder of a comparison's folder with each run's evaluations (CSV), summary (JSON) and checkpoint.
 PER_RUN_DIR = "per_run"
@@ -70,7 +70,8 @@ class RunSpec:
     :param eval_freq: Evaluate every this many environment steps
     :param n_eval_episodes: Episodes per evaluation (deterministic, and again stochastic)
     :param config_path: The zoo yml (None: :func:`~sb3_reinforce.lab.compare.experiment.read_entry`'s default)
-    :param entry: The algorithm's zoo entry, read once by the command (None: not read yet); not part of the identity
+    :param entry: The algorithm's zoo entry as the command read it (None: not read); not part of the identity. The
+        worker that trains the run reads the file again, as ``sb3-reinforce-zoo train`` does, to build the model
     """
 
     env_id: str
@@ -107,9 +108,10 @@ class Checkpoint:
     :param paths: The model's, the statistics' and the state's files (:meth:`ComparisonFolder.checkpoint`)
     :param spec: The run
     :param hyperparams: The run's zoo entry as in its summary (a checkpoint made with other values is not resumed)
-    :param vec_env: The kind of vectorized training environment of this process (``"dummy"`` or ``"subproc"``)
+    :param vec_env: The kind of training environments of this process (``"dummy"``, ``"subproc"`` or ``"envpool"``)
     :param cpu_at_start: :func:`process_tree_cpu_s` when the run started in this process (counted from there)
     :param device: Where the model computes in this process (PyTorch's device name, as given)
+    :param system: This process's :func:`~sb3_reinforce.lab.provenance.system_info` (None: not recorded)
     """
 
     def __init__(
@@ -120,6 +122,7 @@ class Checkpoint:
         vec_env: str = "dummy",
         cpu_at_start: float = 0.0,
         device: str = "cpu",
+        system: dict[str, str] | None = None,
     ) -> None:
         self.model_path, self.vecnormalize_path, self.state_path = paths
         self.cpu_at_start = cpu_at_start
@@ -127,6 +130,7 @@ class Checkpoint:
         self.hyperparams = hyperparams
         self.vec_envs = [vec_env]
         self.devices = [device]
+        self.systems = [system]
         self.cpu_time_before = 0.0
         self.resumed_at_steps: list[int] = []
 
@@ -150,6 +154,7 @@ class Checkpoint:
             resumed_at_steps=self.resumed_at_steps,
             vec_envs=self.vec_envs,
             devices=self.devices,
+            systems=self.systems,
         )
         write_replacing(self.state_path, json.dumps(state, indent=2).encode())
 
@@ -195,6 +200,8 @@ class Checkpoint:
         self.vec_envs = [*earlier, self.vec_envs[-1]]
         # Older checkpoints without the device all trained on the CPU
         self.devices = [*state.get("devices", ["cpu"] * len(earlier)), self.devices[-1]]
+        # Older checkpoints did not record the system of their parts
+        self.systems = [*state.get("systems", [None] * len(earlier)), self.systems[-1]]
         return restored
 
     def delete(self) -> None:
@@ -270,6 +277,7 @@ class ComparisonFolder:
         vec_env: str = "dummy",
         cpu_at_start: float = 0.0,
         device: str = "cpu",
+        system: dict[str, str] | None = None,
     ) -> Checkpoint:
         """A run's :class:`Checkpoint` in ``per_run/`` (see :class:`Checkpoint` for the arguments)."""
         paths = (
@@ -277,10 +285,17 @@ class ComparisonFolder:
             self.runs_dir / f"{spec.name}.checkpoint_vecnormalize.pkl",
             self.runs_dir / f"{spec.name}.checkpoint.json",
         )
-        return Checkpoint(paths, spec, hyperparams, vec_env, cpu_at_start, device)
+        return Checkpoint(paths, spec, hyperparams, vec_env, cpu_at_start, device, system)
 
     def resume(
-        self, spec: RunSpec, model: BaseAlgorithm, hyperparams: dict[str, str], vec_env: str, cpu_at_start: float, device: str
+        self,
+        spec: RunSpec,
+        model: BaseAlgorithm,
+        hyperparams: dict[str, str],
+        vec_env: str,
+        cpu_at_start: float,
+        device: str,
+        system: dict[str, str],
     ) -> tuple[BaseAlgorithm, Checkpoint | None, dict[str, Any] | None]:
         """
         Where a run goes on from: its checkpoint (None for an off-policy run: ``model.save`` leaves the replay buffer
@@ -293,7 +308,7 @@ class ComparisonFolder:
         if isinstance(model, OffPolicyAlgorithm):
             self.start_evaluations(spec, None)
             return model, None, None
-        checkpoint = self.checkpoint(spec, hyperparams, vec_env, cpu_at_start, device)
+        checkpoint = self.checkpoint(spec, hyperparams, vec_env, cpu_at_start, device, system)
         state = checkpoint.load_state() if self.evaluations_path(spec).exists() else None
         resumed = None
         if state is not None:
@@ -309,13 +324,12 @@ class ComparisonFolder:
         """
         self.runs_dir.mkdir(parents=True, exist_ok=True)
         path = self.evaluations_path(spec)
-        if resumed_eval_index is None:
-            write_replacing(path, (",".join(RESULT_COLUMNS) + "\n").encode())
-            return
-        with path.open(newline="") as f:
-            rows = list(csv.reader(f))
-        column = RESULT_COLUMNS.index("eval_index")
-        kept = [rows[0]] + [row for row in rows[1:] if int(row[column]) < resumed_eval_index]
+        kept = [RESULT_COLUMNS]
+        if resumed_eval_index is not None:
+            with path.open(newline="") as f:
+                rows = list(csv.reader(f))
+            column = RESULT_COLUMNS.index("eval_index")
+            kept = [rows[0]] + [row for row in rows[1:] if int(row[column]) < resumed_eval_index]
         buffer = io.StringIO()
         csv.writer(buffer).writerows(kept)
         write_replacing(path, buffer.getvalue().encode())

@@ -155,11 +155,16 @@ def exploration_noise_to_policy_device(model: BaseAlgorithm) -> None:
 
 
 def _history(checkpoint: Checkpoint | None, cpu_at_start: float, vec_env: str, device: str) -> dict[str, Any]:
-    """CPU seconds of the run, its kinds of environment processes and devices (one per part), the steps it resumed at."""
+    """
+    CPU seconds of the run, its kinds of environment processes and devices (one per part), and where it was resumed:
+    the steps it resumed at and the systems of its parts (None for a part that did not record its own).
+    """
     if checkpoint is None:
         return dict(cpu_time_s=round(process_tree_cpu_s() - cpu_at_start, 1), vec_envs=[vec_env], devices=[device])
     history = dict(cpu_time_s=round(checkpoint.cpu_time_s(), 1), vec_envs=checkpoint.vec_envs, devices=checkpoint.devices)
-    return history | ({"resumed_at_steps": checkpoint.resumed_at_steps} if checkpoint.resumed_at_steps else {})
+    if checkpoint.resumed_at_steps:
+        history |= dict(resumed_at_steps=checkpoint.resumed_at_steps, systems=checkpoint.systems)
+    return history
 
 
 def run(
@@ -192,7 +197,8 @@ def run(
         run_args = (spec.algo, spec.env_id, spec.seed, spec.budget, Path(zoo_folder), config, vec_env)
         built = build_run(*run_args, device=device, n_eval_episodes=spec.n_eval_episodes)
         hyperparams = {key: str(value) for key, value in built.entry.hyperparams.items()}
-        built.model, checkpoint, resumed = folder.resume(spec, built.model, hyperparams, vec_env, cpu_at_start, device)
+        system = provenance["system"]
+        built.model, checkpoint, resumed = folder.resume(spec, built.model, hyperparams, vec_env, cpu_at_start, device, system)
         exploration_noise_to_policy_device(built.model)
         callback = ComparisonEvalCallback(spec, built.evaluator, folder, progress, checkpoint, resumed, heartbeat)
         # Resumed: the steps left, on the restored step count (the schedules go on from where they were)
@@ -206,6 +212,7 @@ def run(
         spec=spec.identity(),
         **provenance,
         hyperparams_source=str(built.entry.source),
+        zoo_entry=built.entry.fallback or spec.env_id,  # "default": the file had no entry for the env
         hyperparams=hyperparams,
         steps=steps,
         train_time_s=round(train_time, 3),
