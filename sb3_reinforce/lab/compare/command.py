@@ -71,10 +71,11 @@ def _add_run_arguments(parser: argparse._ArgumentGroup) -> None:
     parser.add_argument(
         "--gym-packages",
         nargs="+",
-        default=[],
+        default=None,
         metavar="MODULE",
         help="modules to import first, which register your environments (as rl_zoo3's; the current folder is searched "
-        "too); an algorithm whose zoo file has no entry for the env trains with its 'default' entry, its defaults",
+        "too); an algorithm whose zoo file has no entry for the env trains with its 'default' entry, its defaults "
+        "(default: none)",
     )
     parser.add_argument(
         "--algos",
@@ -205,7 +206,7 @@ def _env_module(args: argparse.Namespace) -> None:
     """``--env module:EnvName-v0`` (Gymnasium's form) as ``--env EnvName-v0 --gym-packages module``."""
     if ":" in args.env:
         module, args.env = args.env.split(":", 1)
-        args.gym_packages = [*args.gym_packages, module]
+        args.gym_packages = [*(args.gym_packages or []), module]
 
 
 def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None, dict[str, ZooEntry]]:
@@ -217,7 +218,7 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None, 
     :raises ValueError: on any bad input, with a message saying what to change
     """
     _env_module(args)
-    import_gym_packages(args.gym_packages)
+    import_gym_packages(args.gym_packages or [])
     check_where(args.env, args.vec_env, args.device, here=args.scheduler is None)
     algos = _algos(args.algos)
     _check_numbers(args)
@@ -269,7 +270,7 @@ def _run_all(todo: list[RunSpec], folder: ComparisonFolder, args: argparse.Names
         Job(
             spec.name,
             _train,
-            (spec, args.vec_env, args.device, tuple(args.gym_packages)),
+            (spec, args.vec_env, args.device, tuple(args.gym_packages or [])),
             run_cpus((spec.entry or read_entry(spec.algo, spec.env_id, config_of(spec), args.vec_env)).n_envs, args.vec_env),
             folder.run_files_pattern(spec),
             folder.run_files(spec),
