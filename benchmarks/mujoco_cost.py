@@ -3,15 +3,16 @@ What a MuJoCo run costs here, measured before the study is planned (issue 45):
 
 - ``raw``: environment steps per second with random actions, Gymnasium's ``-v4`` env against EnvPool's twin on one
   thread with 1 and with 8 environments (no policy);
-- ``run``: REINFORCE's training steps per second (a fresh model from a zoo entry, built as ``sb3-reinforce compare``
-  builds it, one torch thread) and the steps per second of 10 deterministic evaluation episodes on the run's
-  evaluation environment (SB3's ``evaluate_policy``, as compare evaluates).
+- ``run``: an algorithm's training steps per second (REINFORCE's unless ``--algo``; a fresh model from a zoo entry,
+  built as ``sb3-reinforce compare`` builds it, one torch thread) and the steps per second of 10 deterministic
+  evaluation episodes on the run's evaluation environment (SB3's ``evaluate_policy``, as compare evaluates).
 
 Each measurement appends a row to ``results/mujoco_cost.csv`` with the machine's load average when it started. Two
 runs side by side: start the command twice at once (``--tag pair``).
 
     python benchmarks/mujoco_cost.py raw --envs HalfCheetah-v4 Hopper-v4 Ant-v4 Humanoid-v4
     python benchmarks/mujoco_cost.py run --envs HalfCheetah-v4 --config benchmarks/configs/mujoco_tuning/a_value4.yml
+    python benchmarks/mujoco_cost.py run --algo ppo --envs Pendulum-v1 --config benchmarks/configs/defaults_study/ppo.yml
 """
 
 import argparse
@@ -60,8 +61,8 @@ def raw_rates(env_id: str, steps: int) -> list[dict[str, Any]]:
     return rows
 
 
-def run_rates(env_id: str, config: Path, steps: int, seed: int) -> list[dict[str, Any]]:
-    """REINFORCE's training steps per second from ``config``'s entry, then 10 deterministic evaluation episodes."""
+def run_rates(algo: str, env_id: str, config: Path, steps: int, seed: int) -> list[dict[str, Any]]:
+    """``algo``'s training steps per second from ``config``'s entry, then 10 deterministic evaluation episodes."""
     import torch as th
     from stable_baselines3.common.evaluation import evaluate_policy
 
@@ -69,7 +70,7 @@ def run_rates(env_id: str, config: Path, steps: int, seed: int) -> list[dict[str
 
     th.set_num_threads(1)
     with tempfile.TemporaryDirectory() as log_folder:
-        built = build_run("reinforce", env_id, seed, steps, Path(log_folder), config=config)
+        built = build_run(algo, env_id, seed, steps, Path(log_folder), config=config)
         load = os.getloadavg()[0]
         start = time.perf_counter()
         built.model.learn(steps)
@@ -92,7 +93,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("kind", choices=["raw", "run"])
     parser.add_argument("--envs", nargs="+", default=["HalfCheetah-v4", "Hopper-v4"])
     parser.add_argument("--steps", type=int, default=None, help="steps per measurement (raw: 5,000; run: 30,000)")
-    parser.add_argument("--config", type=Path, default=None, help="REINFORCE's zoo yml (run)")
+    parser.add_argument("--algo", default="reinforce", help="the algorithm (run), as compare's --algos")
+    parser.add_argument("--config", type=Path, default=None, help="the algorithm's zoo yml (run)")
     parser.add_argument("--seed", type=int, default=100)
     parser.add_argument("--tag", default="alone", help="recorded as is: 'alone', or 'pair' for two at once")
     parser.add_argument("--out", type=Path, default=RESULTS)
@@ -108,7 +110,7 @@ def main(argv: list[str] | None = None) -> None:
                 rows = raw_rates(env_id, args.steps or 5_000)
             else:
                 assert args.config is not None, "run needs --config"
-                rows = run_rates(env_id, args.config, args.steps or 30_000, args.seed)
+                rows = run_rates(args.algo, env_id, args.config, args.steps or 30_000, args.seed)
             for row in rows:
                 row = {"kind": args.kind, **row, "env_id": env_id, "tag": args.tag}
                 row["config"] = args.config.stem if args.config else ""

@@ -311,8 +311,13 @@ ACROBOT_ONLY = str(Path(__file__).parents[2] / "benchmarks" / "configs" / "reinf
         ),
         (
             ["--env", "MountainCarContinuous-v0", "--algos", "reinforce", "--reinforce-config", ACROBOT_ONLY],
-            "Add one, or pass another file with --reinforce-config.",  # compare's flag, not the zoo's -conf
+            "Add one, or pass another file with --config reinforce=FILE.",  # compare's flag, not the zoo's -conf
         ),
+        (["--config", "ppo"], "--config takes ALGO=FILE with ALGO among"),
+        (["--config", "nosuchalgo=x.yml"], "--config takes ALGO=FILE with ALGO among"),
+        (["--config", "ppo=a.yml", "PPO=b.yml"], "--config names ppo twice"),
+        (["--config", f"reinforce={ACROBOT_ONLY}", "--reinforce-config", ACROBOT_ONLY], "the same option: give one"),
+        (["--env", "Pendulum-v1", "--algos", "ppo", "--config", f"ppo={ACROBOT_ONLY}"], "--config ppo=FILE."),
     ],
 )
 def test_bad_input_fails_before_training(
@@ -494,10 +499,24 @@ def test_each_run_records_its_system_and_the_report_names_differences(
 
 
 def test_reinforce_config_is_read_only_with_reinforce(tmp_path: Path) -> None:
-    # --reinforce-config left on a command that compares other algorithms is not read
+    # --reinforce-config (or --config ALGO=FILE) left on a command that compares other algorithms is not read
     args = ["--env", "CartPole-v1", "--algos", "ppo", "--seeds", "1", "--reinforce-config", str(tmp_path / "none.yml")]
     specs, _, entries = parse_specs(build_parser().parse_args(args))
     assert [spec.name for spec in specs] == ["ppo_seed0"] and list(entries) == ["ppo"]
+    args = ["--env", "CartPole-v1", "--algos", "ppo", "--seeds", "1", "--config", f"a2c={tmp_path / 'none.yml'}"]
+    assert list(parse_specs(build_parser().parse_args(args))[2]) == ["ppo"]
+
+
+def test_config_gives_any_algorithm_its_defaults(tmp_path: Path) -> None:
+    # Issue 62's study: a file with only a `default` entry trains PPO with SB3's defaults on an env rl_zoo3 has tuned
+    defaults = tmp_path / "ppo_defaults.yml"
+    defaults.write_text("default:\n  policy: 'MlpPolicy'\n  n_timesteps: !!float 1e6\n")
+    args = ["--env", "CartPole-v1", "--algos", "ppo,a2c", "--seeds", "1", "--budget", "1000", "--config", f"ppo={defaults}"]
+    specs, _, entries = parse_specs(build_parser().parse_args(args))
+    assert entries["ppo"].fallback == "default" and entries["ppo"].source == defaults and entries["ppo"].n_envs == 1
+    assert entries["ppo"].hyperparams == {"policy": "MlpPolicy", "n_timesteps": 1e6}
+    assert entries["a2c"].fallback is None and entries["a2c"].n_envs == 8  # rl_zoo3's own CartPole-v1 entry
+    assert [spec.config_path for spec in specs] == [str(defaults), None]
 
 
 def test_code_version_without_git(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -152,6 +152,20 @@ def test_train_enjoy_benchmark_record_video(tmp_path: Path, monkeypatch: pytest.
     assert list((tmp_path / "videos").glob("*reinforce-CartPole-v1*.mp4"))
 
 
+@pytest.mark.parametrize("flag, threads", [([], 1), (["--num-threads", "2"], 2), (["--num-threads=3"], 3)])
+def test_train_runs_torch_on_one_thread_unless_told(
+    flag: list[str], threads: int, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Issue 62: torch's default threads made learn ~5x slower on a shared 2-core machine (torch_threads.csv)
+    import torch as th
+
+    before = th.get_num_threads()
+    args = ["train", "--algo", "reinforce", "--env", "CartPole-v1", "-n", "100", "--eval-freq", "-1", "--verbose", "2"]
+    assert main([*args, *flag, "-f", str(tmp_path)]) == 0
+    assert f"Setting torch.num_threads to {threads}\n" in capsys.readouterr().out  # rl_zoo3's own line
+    assert th.get_num_threads() == before  # the caller's process keeps its count
+
+
 def test_benchmark_table_stays_in_the_benchmark_folder(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:

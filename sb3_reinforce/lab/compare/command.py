@@ -107,11 +107,15 @@ def _add_run_arguments(parser: argparse._ArgumentGroup) -> None:
     parser.add_argument("--threshold", default=None, help="solve threshold (default: the env's known one, if any)")
     parser.add_argument("--out", type=Path, default=None, help="output folder (default: runs/compare/<env>)")
     parser.add_argument(
-        "--reinforce-config",
-        type=Path,
+        "--config",
+        nargs="+",
         default=None,
-        help="REINFORCE's zoo yml (default: the package's zoo_configs/reinforce.yml)",
+        metavar="ALGO=FILE",
+        help="an algorithm's zoo yml in place of its own (REINFORCE's: the package's zoo_configs/reinforce.yml; "
+        "another's: the installed rl_zoo3's), e.g. --config ppo=my_ppo.yml; a file with only a 'default' entry "
+        "trains the algorithm on any env with that entry; read only for the algorithms compared (default: none)",
     )
+    parser.add_argument("--reinforce-config", type=Path, default=None, help="the same as --config reinforce=FILE")
 
 
 def _add_execution_arguments(parser: argparse._ArgumentGroup) -> None:
@@ -186,6 +190,25 @@ def _algos(text: str) -> list[str]:
     return algos
 
 
+def _configs(items: list[str], reinforce_config: Path | None, algos: list[str]) -> dict[str, Path | None]:
+    """Each compared algorithm's zoo yml from ``--config ALGO=FILE ...`` and ``--reinforce-config`` (None: its own)."""
+    given: dict[str, Path] = {}
+    known = known_algos()
+    for item in items:
+        algo, _, path = item.partition("=")
+        algo = algo.strip().lower()
+        if not path or algo not in known:
+            raise ValueError(f"--config takes ALGO=FILE with ALGO among {', '.join(known)}, got {item!r}")
+        if algo in given:
+            raise ValueError(f"--config names {algo} twice: give each algorithm one file")
+        given[algo] = Path(path)
+    if reinforce_config is not None:
+        if "reinforce" in given:
+            raise ValueError("--reinforce-config and --config reinforce=FILE are the same option: give one")
+        given["reinforce"] = reinforce_config
+    return {algo: given.get(algo) for algo in algos}
+
+
 def _budgets(text: str, env_id: str, entries: dict[str, ZooEntry]) -> dict[str, int]:
     """Each algorithm's budget from ``--budget``: PPO's zoo budget, each its own, or a number of steps."""
     if text in ("ppo", "zoo"):
@@ -223,9 +246,7 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None, 
     algos = _algos(args.algos)
     _check_numbers(args)
     threshold = _parse_threshold(args.threshold, args.env)
-    configs: dict[str, Path | None] = dict.fromkeys(algos)
-    if args.reinforce_config is not None and "reinforce" in configs:
-        configs["reinforce"] = args.reinforce_config
+    configs = _configs(args.config or [], args.reinforce_config, algos)
     entries = {algo: read_entry(algo, args.env, config, args.vec_env) for algo, config in configs.items()}
     budgets = _budgets(args.budget, args.env, entries)
     if args.eval_freq is not None and args.eval_freq < 1:

@@ -1,7 +1,8 @@
 """
 Build each comparison run with rl_zoo3's ``ExperimentManager`` exactly as ``sb3-reinforce-zoo train`` does (only the
-evaluation environment is the comparison's own). REINFORCE's hyperparameters come from ``zoo_configs/reinforce.yml`` (or
-``--reinforce-config``), every other algorithm's from the *installed* rl_zoo3 (``rl_zoo3/hyperparams/<algo>.yml``).
+evaluation environment is the comparison's own). REINFORCE's hyperparameters come from ``zoo_configs/reinforce.yml``,
+every other algorithm's from the *installed* rl_zoo3 (``rl_zoo3/hyperparams/<algo>.yml``), unless ``--config ALGO=FILE``
+names another file.
 """
 
 import argparse
@@ -183,7 +184,7 @@ def read_entry(algo: str, env_id: str, config: Path | None = None, vec_env: str 
     if algo not in known:
         raise ValueError(f"Unknown algorithm {algo!r}: choose among {', '.join(known)}")
     manager = _manager(algo, env_id, 0, 0, os.devnull, config, vec_env)
-    manager.config_flag = "--reinforce-config"  # compare's flag for REINFORCE's file
+    manager.config_flag = f"--config {algo}=FILE"  # compare's flag for an algorithm's file
     with _quiet():
         try:
             hyperparams, saved = manager.read_hyperparameters()

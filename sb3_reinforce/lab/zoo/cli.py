@@ -248,6 +248,8 @@ and `enjoy`, `record-video`, `record_training` and `push_to_hub` find the shippe
 (the default of the first three).
 `train --vec-env envpool` steps the training environments in EnvPool (the envpool extra; the env ids it offers:
 sb3_reinforce.lab.envpool_vec_env.ENVPOOL_ENV_IDS); evaluations stay on Gymnasium's environment.
+`train` runs torch on one thread unless --num-threads N is given (-1: torch's default, a thread per core): on a
+shared 2-core machine torch's default made REINFORCE's learn about 5x slower (benchmarks/results/torch_threads.csv).
 
 `train --optimize` with a database --storage (postgresql://USER:PASSWORD@HOST:5432/DB) also takes:
   --heartbeat-interval S  seconds between the heartbeats of a running trial (default: 60)
@@ -324,6 +326,13 @@ def _fault_tolerance_flags(args: Sequence[str]) -> tuple["FaultTolerance", list[
     return FaultTolerance(known.heartbeat_interval, known.grace_period, known.max_retry), rest
 
 
+def _one_torch_thread(args: Sequence[str]) -> list[str]:
+    """``--num-threads 1`` added to the zoo's arguments unless they set it (rl_zoo3's default, -1, keeps torch's)."""
+    if any(arg == "--num-threads" or arg.startswith("--num-threads=") for arg in args):
+        return list(args)
+    return [*args, "--num-threads", "1"]
+
+
 def _vec_env_flag(args: Sequence[str]) -> tuple[bool, list[str]]:
     """Take ``--vec-env envpool`` (this command's own choice) out of the zoo's arguments: whether it was given."""
     parser = argparse.ArgumentParser(add_help=False)
@@ -365,11 +374,14 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _run(command: str, args: list[str]) -> int:
     """Run one zoo command with REINFORCE registered; usage and config errors become one line and status 2."""
+    import torch as th
+
     from sb3_reinforce.lab.zoo.exp_manager import ReinforceExperimentManager, ZooUsageError
     from sb3_reinforce.lab.zoo.storage import StorageError
 
     register()
     fault_tolerance, envpool = ReinforceExperimentManager.fault_tolerance, ReinforceExperimentManager.envpool
+    threads = th.get_num_threads()  # train sets its own (--num-threads): the caller's process keeps its count
     saved_argv = sys.argv
     sys.argv = [f"{PROG} {command}", *args]
     try:
@@ -379,7 +391,8 @@ def _run(command: str, args: list[str]) -> int:
             sys.argv[1:] = _shipped_agents_flag(command, args)
         if command == "train":
             ReinforceExperimentManager.fault_tolerance, rest = _fault_tolerance_flags(args)
-            ReinforceExperimentManager.envpool, sys.argv[1:] = _vec_env_flag(rest)
+            ReinforceExperimentManager.envpool, rest = _vec_env_flag(rest)
+            sys.argv[1:] = _one_torch_thread(rest)
         COMMANDS[command]()
     except (ZooUsageError, StorageError) as error:
         print(f"{PROG} {command}: error: {error}", file=sys.stderr)
@@ -393,4 +406,5 @@ def _run(command: str, args: list[str]) -> int:
     finally:
         sys.argv = saved_argv
         ReinforceExperimentManager.fault_tolerance, ReinforceExperimentManager.envpool = fault_tolerance, envpool
+        th.set_num_threads(threads)
     return 0
