@@ -15,12 +15,13 @@ import argparse
 import csv
 import json
 import os
-import platform
 import subprocess
 import sys
 import time
 from pathlib import Path
 from typing import Any
+
+from sb3_reinforce.lab.provenance import system_info
 
 RESULTS = Path(__file__).parent / "results" / "torch_threads.csv"
 COLUMNS = ["tag", "env_id", "kwargs", "threads", "torch_threads", "steps", "seconds", "steps_per_s", "load_1min"]
@@ -41,17 +42,6 @@ def one_run(env_id: str, steps: int, threads: int | None, kwargs: dict[str, Any]
     model.learn(steps)
     seconds = time.perf_counter() - start
     return dict(torch_threads=th.get_num_threads(), steps=model.num_timesteps, seconds=seconds, load_1min=load)
-
-
-def cpu_model() -> str:
-    """The CPU's model name (Linux), else the platform's processor string."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor()
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -83,7 +73,7 @@ def main(argv: list[str] | None = None) -> None:
                 result = json.loads(child.stdout.splitlines()[-1])
                 row = {"tag": args.tag, "env_id": args.env, "kwargs": args.kwargs, "threads": threads, **result}
                 row.update(steps_per_s=round(row["steps"] / row["seconds"], 1), seconds=round(row["seconds"], 2))
-                row.update(load_1min=round(row["load_1min"], 2), cpu=cpu_model(), cores=os.cpu_count())
+                row.update(load_1min=round(row["load_1min"], 2), cpu=system_info()["CPU"], cores=os.cpu_count())
                 writer.writerow(row)
                 file.flush()
                 print(", ".join(f"{key}={row[key]}" for key in COLUMNS))

@@ -4,7 +4,8 @@ The repository as a clone meets it: every committed file small, but the shipped 
 Every committed byte stays in every clone's history, so a large file (a checkpoint, a video, a raw log) costs every
 user for good: past commits hold 296 MiB of CarRacing checkpoints, which the README's blobless clone does not fetch.
 The one exception is an unfinished run's last checkpoint, committed at a session's end so that the run resumes in
-the next (issue 63's 4M-step CarRacing-v3 runs, ~10.6 MB each), and removed when the run finishes.
+the next (issue 63's 4M-step CarRacing-v3 runs, ~10.6 MB each), and removed when the run finishes
+(``tests/lab/test_benchmarks.py::test_only_unfinished_runs_keep_a_checkpoint``).
 """
 
 import shutil
@@ -50,17 +51,6 @@ def test_no_committed_file_over_2_mb() -> None:
         and (REPO / name).stat().st_size > MAX_FILE_BYTES
     }
     assert not too_large, f"files over {MAX_FILE_BYTES:,} bytes outside {LARGE_FILES_ALLOWED_UNDER}: {too_large}"
-
-
-def test_no_finished_runs_checkpoint_is_committed() -> None:
-    # A checkpoint is committed only while its run must resume in a later session: removed when the run finishes
-    tracked = set(tracked_files())
-    left = sorted(
-        name
-        for name in tracked
-        if "/per_run/" in name and ".checkpoint" in name and f"{name.split('.checkpoint')[0]}.json" in tracked
-    )
-    assert not left, f"checkpoints of finished runs (their summary .json is committed): remove them: {left}"
 
 
 @pytest.mark.parametrize(
