@@ -514,3 +514,29 @@ def test_mujoco_tuning_stage_2_reads_sampled_actions_where_the_untrained_policy_
     # no env reopened: Swimmer-v4 stands for any env with a stage 2 here)
     run("a_value4", 70, 30, untrained=(60.0, 40.0))
     assert tuning.pick(tuning.candidate_scores(tmp_path), "Swimmer-v4", reopened=()) == "a_value4"
+
+
+def test_wallclock_table_reads_runs_stopped_at_the_threshold(tmp_path: Path) -> None:
+    # Issue 64: two repeats of a comparison stopped at the threshold, read into runs.csv and the table
+    from sb3_reinforce.lab.compare.command import main as compare
+
+    args = ["--env", "CartPole-v1", "--algos", "ppo,reinforce", "--seeds", "1", "--budget", "3000", "--eval-freq", "500"]
+    args += ["--eval-episodes", "2", "--threshold", "40", "--stop-at-threshold", "--workers", "1", "--no-progress"]
+    for repeat in ("repeat1", "repeat2"):
+        compare([*args, "--out", str(tmp_path / repeat / "CartPole-v1")])
+    load("wallclock_table").main(["--root", str(tmp_path)])
+    per_run = pd.read_csv(tmp_path / "runs.csv")
+    assert sorted(zip(per_run["repeat"], per_run["algo"], strict=True)) == [
+        ("repeat1", "ppo"), ("repeat1", "reinforce"), ("repeat2", "ppo"), ("repeat2", "reinforce")
+    ]  # fmt: skip
+    for _, run in per_run.iterrows():  # a run stops where it reaches 40, or trains its whole budget
+        reached = math.isfinite(run["seconds_to_threshold"])
+        assert run["steps_to_threshold"] == run["steps"] if reached else run["steps"] >= 3000
+        assert not reached or run["seconds_to_threshold"] <= run["train_time_s"] + 1e-3
+    # the same seed trains the same steps in both repeats (only the seconds differ)
+    steps = per_run.pivot(index="algo", columns="repeat", values="steps")
+    assert (steps["repeat1"] == steps["repeat2"]).all()
+    table = (tmp_path / "table.md").read_text().splitlines()
+    assert table[2].startswith("| CartPole-v1 (40) | PPO | 1 (0-0) |")
+    assert table[3].startswith("| CartPole-v1 (40) | REINFORCE |")
+    assert table[3].endswith("x |") or table[3].endswith("- |")  # REINFORCE's median against PPO's, per repeat

@@ -313,6 +313,7 @@ ACROBOT_ONLY = str(Path(__file__).parents[2] / "benchmarks" / "configs" / "reinf
             ["--env", "MountainCarContinuous-v0", "--algos", "reinforce", "--reinforce-config", ACROBOT_ONLY],
             "Add one, or pass another file with --config reinforce=FILE.",  # compare's flag, not the zoo's -conf
         ),
+        (["--env", "CliffWalking-v1", "--stop-at-threshold"], "--stop-at-threshold needs a threshold: CliffWalking-v1"),
         (["--config", "ppo"], "--config takes ALGO=FILE with ALGO among"),
         (["--config", "nosuchalgo=x.yml"], "--config takes ALGO=FILE with ALGO among"),
         (["--config", "ppo=a.yml", "PPO=b.yml"], "--config names ppo twice"),
@@ -369,6 +370,26 @@ def test_the_plan_names_a_fallback_entry(tmp_path: Path, capsys: pytest.CaptureF
     out = capsys.readouterr().out
     assert "a2c.yml has no entry for FrozenLake-v1: its 'default' entry is used (MlpPolicy, 1 env(s))" in out
     assert (tmp_path / "results.csv").exists()
+
+
+def test_stop_at_threshold_ends_each_run_at_its_first_evaluation_there(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Issue 64's wall-clock benchmark: the training seconds to the threshold, without the rest of the budget
+    threshold = 100.0  # above the untrained policy's score, reached by REINFORCE within the budget
+    args = ["--env", "CartPole-v1", "--algos", "reinforce", "--seeds", "1", "--budget", "20000", "--eval-freq", "500"]
+    args += ["--eval-episodes", "2", "--threshold", str(threshold), "--workers", "1", "--no-progress"]
+    main([*args, "--stop-at-threshold", "--out", str(tmp_path)])
+    assert "ending at the first deterministic evaluation >= 100" in capsys.readouterr().out
+    evaluations = pd.read_csv(tmp_path / PER_RUN_DIR / "reinforce_seed0.csv")
+    reached = evaluations["mean_return"] >= threshold
+    assert reached.iloc[-1] and not reached.iloc[:-1].any() and len(evaluations) > 1
+    summary = json.loads((tmp_path / PER_RUN_DIR / "reinforce_seed0.json").read_text())
+    assert summary["steps"] == evaluations["steps"].iloc[-1] < 20_000 and summary["spec"]["stop_at"] == threshold
+    assert len(summary["load_1min"]) == 2
+    assert not list((tmp_path / PER_RUN_DIR).glob("*.checkpoint*"))
+    # without it, a run's identity is what the runs made before the option recorded (no stop_at key)
+    assert "stop_at" not in RunSpec("CartPole-v1", "reinforce", 0, 1000, 500, 2).identity()
 
 
 def test_a_users_own_env_runs_on_the_algorithms_defaults(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -56,6 +56,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Train REINFORCE, PPO and A2C on the same env with the same seeds and evaluation protocol.",
     )
     _add_run_arguments(parser.add_argument_group("the runs and their evaluation"))
+    _add_config_arguments(parser.add_argument_group("the algorithms' hyperparameters"))
     _add_execution_arguments(parser.add_argument_group("where and how they run"))
     return parser
 
@@ -105,7 +106,17 @@ def _add_run_arguments(parser: argparse._ArgumentGroup) -> None:
         help="episodes per evaluation, deterministic and again stochastic (default: %(default)s)",
     )
     parser.add_argument("--threshold", default=None, help="solve threshold (default: the env's known one, if any)")
+    parser.add_argument(
+        "--stop-at-threshold",
+        action="store_true",
+        help="end each run at its first deterministic evaluation at or above the threshold, the untrained policy's "
+        "left out (for the training seconds and steps to reach it: the 'final' figures are then those at the stop)",
+    )
     parser.add_argument("--out", type=Path, default=None, help="output folder (default: runs/compare/<env>)")
+
+
+def _add_config_arguments(parser: argparse._ArgumentGroup) -> None:
+    """The arguments that name the algorithms' zoo files (their hyperparameters)."""
     parser.add_argument(
         "--config",
         nargs="+",
@@ -246,6 +257,9 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None, 
     algos = _algos(args.algos)
     _check_numbers(args)
     threshold = _parse_threshold(args.threshold, args.env)
+    if args.stop_at_threshold and threshold is None:
+        raise ValueError(f"--stop-at-threshold needs a threshold: {args.env} has no known one, give --threshold")
+    stop_at = threshold if args.stop_at_threshold else None
     configs = _configs(args.config or [], args.reinforce_config, algos)
     entries = {algo: read_entry(algo, args.env, config, args.vec_env) for algo, config in configs.items()}
     budgets = _budgets(args.budget, args.env, entries)
@@ -255,7 +269,17 @@ def parse_specs(args: argparse.Namespace) -> tuple[list[RunSpec], float | None, 
     config_names = {algo: None if path is None else str(path) for algo, path in configs.items()}
     # Seed-major order: a stopped command's finished runs compare all algorithms on the same seeds
     specs = [
-        RunSpec(args.env, algo, seed, budgets[algo], eval_freqs[algo], args.eval_episodes, config_names[algo], entries[algo])
+        RunSpec(
+            args.env,
+            algo,
+            seed,
+            budgets[algo],
+            eval_freqs[algo],
+            args.eval_episodes,
+            config_names[algo],
+            stop_at,
+            entries[algo],
+        )
         for seed in range(args.first_seed, args.first_seed + args.seeds)
         for algo in algos
     ]
@@ -364,7 +388,9 @@ def _announce(specs: list[RunSpec], todo: list[RunSpec], folder: ComparisonFolde
     )
     for algo in dict.fromkeys(spec.algo for spec in specs):
         spec = next(s for s in specs if s.algo == algo)
-        print(f"  {algo}: {spec.budget:,} steps, evaluation every {spec.eval_freq:,} steps x {spec.n_eval_episodes} episodes")
+        stop = "" if spec.stop_at is None else f", ending at the first deterministic evaluation >= {spec.stop_at:g}"
+        evaluation = f"evaluation every {spec.eval_freq:,} steps x {spec.n_eval_episodes} episodes"
+        print(f"  {algo}: {spec.budget:,} steps, {evaluation}{stop}")
         entry = spec.entry
         if entry is not None and entry.fallback is not None:
             print(

@@ -70,6 +70,8 @@ class RunSpec:
     :param eval_freq: Evaluate every this many environment steps
     :param n_eval_episodes: Episodes per evaluation (deterministic, and again stochastic)
     :param config_path: The zoo yml (None: :func:`~sb3_reinforce.lab.compare.experiment.read_entry`'s default)
+    :param stop_at: End the run at its first deterministic evaluation at or above this return, before its budget
+        (None: train the whole budget); recorded in the identity only when set
     :param entry: The algorithm's zoo entry as the command read it (None: not read); not part of the identity. The
         worker that trains the run reads the file again, as ``sb3-reinforce-zoo train`` does, to build the model
     """
@@ -81,6 +83,7 @@ class RunSpec:
     eval_freq: int
     n_eval_episodes: int
     config_path: str | None = None
+    stop_at: float | None = None
     entry: "ZooEntry | None" = field(default=None, compare=False, repr=False)
 
     @property
@@ -90,7 +93,10 @@ class RunSpec:
 
     def identity(self) -> dict[str, Any]:
         """The settings that define the run, as its summary and checkpoint record them."""
-        return {f.name: getattr(self, f.name) for f in fields(self) if f.compare}
+        identity = {f.name: getattr(self, f.name) for f in fields(self) if f.compare}
+        if self.stop_at is None:  # as the runs made before it existed recorded themselves
+            del identity["stop_at"]
+        return identity
 
 
 def write_replacing(path: Path, data: bytes) -> None:

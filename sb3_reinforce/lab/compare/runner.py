@@ -7,6 +7,7 @@ comparison folder's (:mod:`sb3_reinforce.lab.compare.folder`). Off-policy runs a
 omits the replay buffer.
 """
 
+import os
 import tempfile
 import time
 from collections.abc import Callable
@@ -31,7 +32,8 @@ __all__ = ["ComparisonEvalCallback", "exploration_noise_to_policy_device", "run"
 class ComparisonEvalCallback(BaseCallback):
     """
     Evaluate every ``eval_freq`` steps (and before training), appending a row to the run's CSV and saving its
-    checkpoint. Training time excludes evaluations; peak memory is :func:`process_tree_rss_mb`. After ``learn``,
+    checkpoint. Training time excludes evaluations; peak memory is :func:`process_tree_rss_mb`. A run with
+    ``spec.stop_at`` ends at its first deterministic evaluation after training started at or above it. After ``learn``,
     :meth:`evaluate_if_trained_since` makes the final evaluation.
 
     :param spec: The run being evaluated
@@ -66,6 +68,7 @@ class ComparisonEvalCallback(BaseCallback):
         self.last_eval_steps = -1
         self.n_episodes = 0
         self.eval_time = 0.0
+        self.reached_stop_at = False
         self.start_time = 0.0
         self.train_time_before = 0.0  # training seconds of the runs this one resumes
         self.process = psutil.Process()
@@ -103,11 +106,11 @@ class ComparisonEvalCallback(BaseCallback):
         self.n_episodes += sum(1 for info in self.locals["infos"] if "episode" in info)
         if self.num_timesteps >= self.next_eval:
             self._evaluate()
-        return True
+        return not self.reached_stop_at  # False ends learn()
 
     def evaluate_if_trained_since(self) -> None:
-        """The final evaluation, at the end of the budget, unless the last one was made at the last step."""
-        if self.last_eval_steps < self.num_timesteps:
+        """The final evaluation, at the end of the budget, unless the last one was made at the last step or stopped the run."""
+        if self.last_eval_steps < self.num_timesteps and not self.reached_stop_at:
             self._evaluate()
 
     def _evaluate(self) -> None:
@@ -127,6 +130,9 @@ class ComparisonEvalCallback(BaseCallback):
             round(self.peak_rss_mb, 1),
         ]
         self.folder.append_evaluation(self.spec, row)
+        # not on the untrained policy's evaluation: it can score by chance, and the tables leave it out
+        stop_at = self.spec.stop_at
+        self.reached_stop_at = stop_at is not None and self.num_timesteps > 0 and results[0] >= stop_at
         self.eval_index += 1
         self.last_eval_steps = self.num_timesteps
         self.next_eval = self.eval_index * self.spec.eval_freq
@@ -189,6 +195,7 @@ def run(
     :return: The summary written
     """
     cpu_at_start = process_tree_cpu_s()
+    load_at_start = os.getloadavg()[0]
     th.set_num_threads(1)
     provenance = dict(code_version=code_version(), system=system_info())  # taken where and when the run starts
     folder = ComparisonFolder(out_dir)
@@ -217,6 +224,7 @@ def run(
         steps=steps,
         train_time_s=round(train_time, 3),
         steps_per_s=round(steps / train_time, 1),
+        load_1min=[round(load_at_start, 2), round(os.getloadavg()[0], 2)],  # the machine's, at the start and the end
         peak_rss_mb=round(callback.peak_rss_mb, 1),
         # CPU seconds since the run started here (environment processes included), plus those of the runs it resumes
         **_history(checkpoint, cpu_at_start, vec_env, device),

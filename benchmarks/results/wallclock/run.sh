@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# Issue 64's wall-clock benchmark (README.md beside this file): one repeat, resumable.
+#   run.sh repeat1 | repeat2 [ENV ...]
+# Each env's REINFORCE, PPO and A2C zoo entries (REINFORCE and PPO on MuJoCo) on seeds 7000-7002, one run at a time
+# in seed-major order (reinforce, ppo, a2c on 7000, then 7001, ...), so that the algorithms share the machine's load;
+# each algorithm its own zoo budget, evaluated as the results table evaluates (5 deterministic episodes every
+# budget/20 steps), each run stopped at its first evaluation at or above the threshold. Pause every background run
+# first (SIGSTOP its process group). Then: python benchmarks/wallclock_table.py. Run from the repository root.
+set -e
+cd "$(dirname "$0")/../../.."
+repeat=${1:?usage: run.sh repeat1 | repeat2 [ENV ...]}
+shift
+classic=(CartPole-v1 Acrobot-v1 MountainCar-v0 Pendulum-v1 LunarLander-v3 LunarLanderContinuous-v3)
+mapfile -t mujoco < <(python benchmarks/mujoco_thresholds.py --source "Tianshou REINFORCE" HalfCheetah-v4 Hopper-v4)
+envs=("$@")
+[ ${#envs[@]} -gt 0 ] || envs=("${classic[@]}" "${mujoco[@]%% *}")
+for env in "${envs[@]}"; do
+    algos=reinforce,ppo,a2c
+    threshold=()
+    for line in "${mujoco[@]}"; do
+        [ "${line%% *}" = "$env" ] && { algos=reinforce,ppo; threshold=(--threshold "${line##* }"); }
+    done
+    args=(--env "$env" --algos "$algos" --seeds 3 --first-seed 7000 --budget zoo --eval-episodes 5 "${threshold[@]}"
+        --stop-at-threshold --out "benchmarks/results/wallclock/$repeat/$env" --workers 1 --no-progress)
+    echo "\$ sb3-reinforce compare ${args[*]}"
+    sb3-reinforce compare "${args[@]}"
+done
