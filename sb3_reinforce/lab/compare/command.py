@@ -126,7 +126,9 @@ def _add_config_arguments(parser: argparse._ArgumentGroup) -> None:
         "another's: the installed rl_zoo3's), e.g. --config ppo=my_ppo.yml; a file with only a 'default' entry "
         "trains the algorithm on any env with that entry; read only for the algorithms compared (default: none)",
     )
-    parser.add_argument("--reinforce-config", type=Path, default=None, help="the same as --config reinforce=FILE")
+    parser.add_argument(
+        "--reinforce-config", type=Path, default=None, help="the same as --config reinforce=FILE (default: none)"
+    )
 
 
 def _add_execution_arguments(parser: argparse._ArgumentGroup) -> None:
