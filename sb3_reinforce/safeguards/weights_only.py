@@ -276,21 +276,12 @@ def _read_hyperparameters(path: str | pathlib.Path, config: dict[str, Any]) -> d
     return {name: _hyperparameter_from_json(name, value) for name, value in hyperparameters.items()}
 
 
-def load_weights(
-    path: str | pathlib.Path, env: GymEnv | None = None, device: th.device | str = "auto", load_optimizer: bool = True
-) -> REINFORCE:
+def _read_archive(path: str | pathlib.Path) -> tuple[dict[str, Any], bytes]:
     """
-    Load a model saved by :func:`save_weights`, unpickling nothing: ``config.json`` is parsed as JSON and
-    ``weights.pt`` is read with ``torch.load(weights_only=True)``. A file of format version 1 (which stored a
-    fixed list of hyperparameters) loads too, the missing ones at their defaults, with a warning naming them.
+    The parsed ``config.json`` of a weights-only file (its format, version and policy checked) and ``weights.pt``'s bytes.
 
-    :param path: The file
-    :param env: The environment to train on (its spaces must match the saved ones), or None to only predict
-    :param device: Device for the model
-    :param load_optimizer: Whether to restore the optimizers' states (Adam moments) as well
-    :return: The model
     :raises CorruptModelFileError: if the file is not an intact weights-only file
-    :raises UnsafeFileError: if the file names a class, space or value outside the format
+    :raises UnsafeFileError: if ``config.json`` is not of this format or names another policy
     """
     try:
         with zipfile.ZipFile(path) as archive:
@@ -311,9 +302,15 @@ def load_weights(
         raise UnsafeFileError(f"{path}: config.json is not a {FORMAT} description of version 1 or {FORMAT_VERSION}")
     if config.get("policy") not in REINFORCE.policy_aliases:
         raise UnsafeFileError(f"{path}: unknown policy {config.get('policy')!r}, allowed: {sorted(REINFORCE.policy_aliases)}")
-    hyperparameters = _read_hyperparameters(path, config)
-    observation_space = space_from_json(config["observation_space"])
-    action_space = space_from_json(config["action_space"])
+    return config, weights_bytes
+
+
+def _read_state_dicts(path: str | pathlib.Path, weights_bytes: bytes) -> dict[str, Any]:
+    """
+    ``weights.pt``'s state_dicts, read with ``torch.load(weights_only=True)``.
+
+    :raises UnsafeFileError: if it holds anything but tensors, numbers, strings and plain containers, or no policy
+    """
     try:
         # weights_only=True: tensors, numbers, strings and plain containers only; any other pickled object raises.
         weights = th.load(io.BytesIO(weights_bytes), map_location="cpu", weights_only=True)
@@ -324,6 +321,30 @@ def load_weights(
         ) from exc
     if not isinstance(weights, dict) or not isinstance(weights.get("policy"), dict):
         raise UnsafeFileError(f"{path}: weights.pt must hold a dict with a 'policy' state_dict")
+    return weights
+
+
+def load_weights(
+    path: str | pathlib.Path, env: GymEnv | None = None, device: th.device | str = "auto", load_optimizer: bool = True
+) -> REINFORCE:
+    """
+    Load a model saved by :func:`save_weights`, unpickling nothing: ``config.json`` is parsed as JSON and
+    ``weights.pt`` is read with ``torch.load(weights_only=True)``. A file of format version 1 (which stored a
+    fixed list of hyperparameters) loads too, the missing ones at their defaults, with a warning naming them.
+
+    :param path: The file
+    :param env: The environment to train on (its spaces must match the saved ones), or None to only predict
+    :param device: Device for the model
+    :param load_optimizer: Whether to restore the optimizers' states (Adam moments) as well
+    :return: The model
+    :raises CorruptModelFileError: if the file is not an intact weights-only file
+    :raises UnsafeFileError: if the file names a class, space or value outside the format
+    """
+    config, weights_bytes = _read_archive(path)
+    hyperparameters = _read_hyperparameters(path, config)
+    observation_space = space_from_json(config["observation_space"])
+    action_space = space_from_json(config["action_space"])
+    weights = _read_state_dicts(path, weights_bytes)
 
     model = REINFORCE(config["policy"], env, device=device, _init_setup_model=False, **hyperparameters)  # type: ignore[arg-type]
     if env is None:

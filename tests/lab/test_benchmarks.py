@@ -540,3 +540,92 @@ def test_wallclock_table_reads_runs_stopped_at_the_threshold(tmp_path: Path) -> 
     assert table[2].startswith("| CartPole-v1 (40) | PPO | 1 (0-0) |")
     assert table[3].startswith("| CartPole-v1 (40) | REINFORCE |")
     assert table[3].endswith("x |") or table[3].endswith("- |")  # REINFORCE's median against PPO's, per repeat
+
+
+def test_defaults_table_reads_the_suite_off_the_study_scripts() -> None:
+    # Issue 62: the tasks and seeds the rule reads are queue.sh's, and run.sh's classic tasks are the same
+    defaults = load("defaults_table")
+    tasks = defaults.suite()
+    classic = [env_id for env_id, seeds in tasks.items() if seeds == [0, 1, 2]]
+    assert classic == ["CartPole-v1", "Acrobot-v1", "MountainCar-v0", "Pendulum-v1", "LunarLander-v3",
+                       "LunarLanderContinuous-v3"]  # fmt: skip
+    assert len(tasks) == 15 and all(seeds == [0] for env_id, seeds in tasks.items() if env_id not in classic)
+    run_sh = (BENCHMARKS / "results" / "defaults_study" / "run.sh").read_text()
+    assert defaults._bash_array(run_sh, "classic") == classic
+    limits = defaults.thresholds(list(tasks))
+    assert limits["Pendulum-v1"] == -200 and limits["CartPole-v1"] == 475
+    assert limits["Hopper-v4"] == 395.8  # Tianshou's REINFORCE at 3M (Spinning Up's VPG is higher), as the README says
+
+
+def _finished_run(root: Path, candidate: str, env_id: str, seed: int, final: float) -> None:
+    """A finished run's files, as compare writes them, whose last deterministic evaluation scores ``final``."""
+    from sb3_reinforce.lab.compare.folder import ComparisonFolder, RunSpec
+
+    algo = candidate if candidate in ("ppo", "a2c") else "reinforce"
+    folder = ComparisonFolder(root / candidate / env_id)
+    spec = RunSpec(env_id, algo, seed, budget=1000, eval_freq=500, n_eval_episodes=10)
+    folder.write_meta(env_id, None)
+    folder.start_evaluations(spec, None)
+    for index, score in enumerate((final - 1000.0, final + 1000.0, final)):  # only the last one counts
+        folder.append_evaluation(spec, [env_id, algo, seed, index, 500 * index, 0, 1.0, score, 0.0, score - 1, 0.0, 1.0])
+    folder.write_summary(spec, dict(spec=spec.identity(), steps=1000, train_time_s=1.0))
+
+
+def test_defaults_table_applies_the_rule(tmp_path: Path) -> None:
+    defaults = load("defaults_table")
+    queue = tmp_path / "queue.sh"
+    queue.write_text(
+        "classic=(CartPole-v1 Pendulum-v1)\nmujoco=(Hopper-v4)\nfor seed in 0 1; do\n  :\ndone\n"
+        'for candidate in today; do\n    FIRST_SEED=0 SEEDS=1 bash "$here/run.sh" "$candidate" "${mujoco[@]}"\ndone\n'
+    )
+    tasks = defaults.suite(queue)
+    assert tasks == {"CartPole-v1": [0, 1], "Pendulum-v1": [0, 1], "Hopper-v4": [0]}
+    # final scores per task and seed: CartPole 475, Pendulum -200, Hopper 395.8 solve
+    scores = {
+        "today": {"CartPole-v1": (500, 400), "Pendulum-v1": (-900, -1000), "Hopper-v4": (100,)},  # 0 tasks, 1 run
+        "value20": {"CartPole-v1": (500, 500), "Pendulum-v1": (-150, -300), "Hopper-v4": (100,)},  # 1 task, 3 runs
+        "value20_2048": {"CartPole-v1": (500, 500), "Pendulum-v1": (-190, -205), "Hopper-v4": (50,)},  # 2, 3
+        "ppo": {"CartPole-v1": (500, 500), "Pendulum-v1": (-180, -190), "Hopper-v4": (2000,)},  # 3 tasks
+    }
+    for candidate, by_task in scores.items():
+        for env_id, finals in by_task.items():
+            for seed, final in enumerate(finals):
+                _finished_run(tmp_path, candidate, env_id, seed, final)
+    _finished_run(tmp_path, "today", "CartPole-v1", 7, 0.0)  # a seed the rule does not read
+    argv = ["--root", str(tmp_path), "--queue", str(queue)]
+    defaults.main(argv)
+    per_run = pd.read_csv(tmp_path / "runs.csv")
+    assert len(per_run) == 20 and 7 not in set(per_run["seed"])
+    assert per_run[per_run["candidate"] == "value20"]["final"].tolist() == [500, 500, -150, -300, 100]
+    table = (tmp_path / "table.md").read_text()
+    assert "| Pendulum-v1 (-200) | 0, 1 | -950.0 | -225.0 | -197.5 **solved** | -185.0 **solved** |  |" in table
+    assert "| tasks solved | | 0 | 1 | 2 | 3 | 0 |" in table
+    assert "the pick is `value20_2048` (step 2); the defaults stay (step 3: `value20_2048` solves 2 tasks, PPO's" in table
+
+    # PPO's Hopper run misses: the pick matches PPO's count and beats today's, so it becomes the default
+    _finished_run(tmp_path, "ppo", "Hopper-v4", 0, 10.0)
+    defaults.main(argv)
+    assert (
+        "`value20_2048` becomes the constructor's default (step 3: 2 tasks solved, PPO's defaults 2"
+        in (tmp_path / "table.md").read_text()
+    )
+
+    # More runs at the threshold break a tie on tasks; a tie on both goes to value20, the smaller change
+    _finished_run(tmp_path, "value20", "Pendulum-v1", 1, -199.0)  # value20: 2 tasks, 4 runs; value20_2048: 2, 3
+    defaults.main(argv)
+    assert "the pick is `value20` (step 2)" in (tmp_path / "table.md").read_text()
+    _finished_run(tmp_path, "value20_2048", "Hopper-v4", 0, 500.0)  # value20_2048: 3 tasks
+    defaults.main(argv)
+    assert "the pick is `value20_2048` (step 2)" in (tmp_path / "table.md").read_text()
+    _finished_run(tmp_path, "value20_2048", "Hopper-v4", 0, 50.0)
+    _finished_run(tmp_path, "value20_2048", "Pendulum-v1", 1, -199.0)  # both: 2 tasks, 4 runs
+    defaults.main(argv)
+    assert "the pick is `value20` (step 2)" in (tmp_path / "table.md").read_text()
+
+    # An unfinished column leaves the rule undecided
+    (tmp_path / "ppo" / "Hopper-v4" / "per_run" / "ppo_seed0.json").unlink()
+    defaults.main(argv)
+    assert (
+        "**Not decided yet**" in (tmp_path / "table.md").read_text()
+        and "`ppo` 4 of 5 runs" in (tmp_path / "table.md").read_text()
+    )

@@ -13,7 +13,7 @@ case $candidate in ppo | a2c) algo=$candidate ;; *) algo=reinforce ;; esac
 config=benchmarks/configs/defaults_study/$candidate.yml
 [ -f "$config" ] || { echo "no $config" >&2; exit 2; }
 classic=(CartPole-v1 Acrobot-v1 MountainCar-v0 Pendulum-v1 LunarLander-v3 LunarLanderContinuous-v3)
-mapfile -t mujoco < <(python benchmarks/mujoco_thresholds.py)   # "ENV THRESHOLD" lines
+mapfile -t mujoco < <(python benchmarks/mujoco_thresholds.py --source "Tianshou REINFORCE")   # "ENV THRESHOLD" lines
 envs=("$@")
 [ ${#envs[@]} -gt 0 ] || envs=("${classic[@]}" "${mujoco[@]%% *}")
 for env in "${envs[@]}"; do

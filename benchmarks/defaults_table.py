@@ -1,0 +1,182 @@
+"""
+Issue 62's defaults table and decision: REINFORCE's candidate defaults against PPO's and A2C's, by the rule that
+``results/defaults_study/README.md`` fixed before the runs.
+
+Reads the comparison folders of ``results/defaults_study/run.sh`` (``CANDIDATE/ENV/``), each run's *final*
+deterministic evaluation (its last row: 10 episodes after the budget's last whole episode), and writes
+``results/defaults_study/runs.csv`` (one row per finished run) and ``table.md``: per task, each candidate's mean final
+score over its seeds and whether it solves the task (the mean at or above the threshold), the counts the rule compares,
+and the rule's outcome, or which runs it still waits for. Thresholds: Gymnasium's ``reward_threshold`` (Pendulum-v1:
+the lab's -200, :func:`~sb3_reinforce.lab.stats.solve_threshold`), MuJoCo: Tianshou's REINFORCE at 3M steps
+(``mujoco_thresholds.py --source "Tianshou REINFORCE"``). The suite and its seeds are read off ``queue.sh``.
+
+    python benchmarks/defaults_table.py
+"""
+
+import argparse
+import importlib.util
+import re
+from pathlib import Path
+
+import pandas as pd
+
+from sb3_reinforce.lab.compare.folder import ComparisonFolder
+from sb3_reinforce.lab.stats import solve_threshold
+
+HERE = Path(__file__).parent
+RESULTS = HERE / "results" / "defaults_study"
+#: The rule's candidates for REINFORCE's new defaults (step 2), and what the pick must beat or match (step 3).
+CANDIDATES = ("value20", "value20_2048")
+TODAY, PPO, A2C = "today", "ppo", "a2c"
+#: Every column of the table, in order; A2C is reported, not in the rule.
+COLUMNS = (TODAY, *CANDIDATES, PPO, A2C)
+MUJOCO_SOURCE = "Tianshou REINFORCE"
+#: The columns of runs.csv.
+RUN_COLUMNS = ("candidate", "env_id", "seed", "threshold", "steps", "final", "final_sampled", "reached", "train_time_s")
+
+
+def _bash_array(text: str, name: str) -> list[str]:
+    match = re.search(rf"^{name}=\(([^)]*)\)", text, re.MULTILINE)
+    if match is None:
+        raise ValueError(f"queue.sh has no {name}=(...) array")
+    return match.group(1).split()
+
+
+def suite(queue: Path = RESULTS / "queue.sh") -> dict[str, list[int]]:
+    """The study's tasks and the seeds the rule reads on each, as ``queue.sh`` schedules them."""
+    text = queue.read_text()
+    seeds = re.search(r"^for seed in ([\d ]+); do", text, re.MULTILINE)
+    if seeds is None:
+        raise ValueError("queue.sh has no 'for seed in ...' loop over the classic tasks")
+    classic_seeds = [int(seed) for seed in seeds.group(1).split()]
+    mujoco_seed = re.search(r"FIRST_SEED=(\d+) SEEDS=1 bash \"\$here/run.sh\" \"\$candidate\" \"\$\{mujoco", text)
+    if mujoco_seed is None:
+        raise ValueError("queue.sh runs no MuJoCo seed per candidate")
+    tasks = {env_id: classic_seeds for env_id in _bash_array(text, "classic")}
+    return tasks | {env_id: [int(mujoco_seed.group(1))] for env_id in _bash_array(text, "mujoco")}
+
+
+def thresholds(env_ids: list[str]) -> dict[str, float]:
+    """The rule's threshold of each task."""
+    spec = importlib.util.spec_from_file_location("mujoco_thresholds", HERE / "mujoco_thresholds.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    published = module.thresholds(source=MUJOCO_SOURCE)
+    found = {env_id: published[env_id] if env_id in published.index else solve_threshold(env_id) for env_id in env_ids}
+    missing = [env_id for env_id, value in found.items() if value is None]
+    if missing:
+        raise ValueError(f"no threshold for {', '.join(missing)}")
+    return {env_id: float(value) for env_id, value in found.items()}
+
+
+def runs(root: Path, tasks: dict[str, list[int]]) -> pd.DataFrame:
+    """One row per finished run of the study's tasks and seeds: its final deterministic and sampled-action scores."""
+    limits = thresholds(list(tasks))
+    rows = []
+    for column in COLUMNS:
+        for env_id, seeds in tasks.items():
+            folder = ComparisonFolder(root / column / env_id)
+            if not folder.holds_comparison(folder.root):
+                continue
+            evaluations = folder.finished_evaluations()
+            for (algo, seed), summary in sorted(folder.load_summaries().items()):
+                if seed not in seeds:
+                    continue
+                assert evaluations is not None
+                run = evaluations[(evaluations["algo"] == algo) & (evaluations["seed"] == seed)]
+                final = run.loc[run["eval_index"].idxmax()]
+                rows.append(
+                    dict(
+                        candidate=column,
+                        env_id=env_id,
+                        seed=seed,
+                        threshold=limits[env_id],
+                        steps=summary["steps"],
+                        final=final["mean_return"],
+                        final_sampled=final["mean_return_stochastic"],
+                        reached=final["mean_return"] >= limits[env_id],
+                        train_time_s=summary["train_time_s"],
+                    )
+                )
+    return pd.DataFrame(rows, columns=list(RUN_COLUMNS))
+
+
+def counts(per_run: pd.DataFrame, tasks: dict[str, list[int]], column: str) -> tuple[int, int, int, int]:
+    """
+    A column's tasks solved (mean final over the task's seeds at or above its threshold), among the tasks whose runs
+    have all finished, the runs at or above the threshold, and how many of its runs are finished and expected.
+    """
+    mine = per_run[per_run["candidate"] == column]
+    solved = complete = 0
+    for env_id, seeds in tasks.items():
+        task_runs = mine[mine["env_id"] == env_id]
+        if set(task_runs["seed"]) >= set(seeds):
+            complete += 1
+            solved += bool(task_runs["final"].mean() >= task_runs["threshold"].iloc[0])
+    return solved, int(mine["reached"].sum()), len(mine), sum(len(seeds) for seeds in tasks.values())
+
+
+def decision(per_run: pd.DataFrame, tasks: dict[str, list[int]]) -> str:
+    """The rule's outcome (README, "The rule"), or which columns it still waits for."""
+    waiting = []
+    for column in (TODAY, *CANDIDATES, PPO):
+        _, _, finished, expected = counts(per_run, tasks, column)
+        if finished < expected:
+            waiting.append(f"`{column}` {finished} of {expected} runs")
+    if waiting:
+        return "**Not decided yet**: the rule reads every run of its columns; finished so far: " + ", ".join(waiting) + "."
+    solved = {column: counts(per_run, tasks, column)[:2] for column in (TODAY, *CANDIDATES, PPO)}
+    # Step 2: the most tasks solved, then the most runs at or above the threshold, then value20 (listed first)
+    pick = max(CANDIDATES, key=lambda column: (*solved[column], -CANDIDATES.index(column)))
+    tasks_pick, tasks_ppo, tasks_today = solved[pick][0], solved[PPO][0], solved[TODAY][0]
+    verdict = (
+        f"`{pick}` becomes the constructor's default (step 3: {tasks_pick} tasks solved, PPO's defaults {tasks_ppo}, "
+        f"today's {tasks_today})"
+        if tasks_pick >= tasks_ppo and tasks_pick > tasks_today
+        else f"the defaults stay (step 3: `{pick}` solves {tasks_pick} tasks, PPO's defaults {tasks_ppo}, today's "
+        f"{tasks_today})"
+    )
+    return f"**Decided**: the pick is `{pick}` (step 2); {verdict}."
+
+
+def table(per_run: pd.DataFrame, tasks: dict[str, list[int]]) -> str:
+    """Markdown: per task each column's mean final score (seeds finished) and whether it solves; counts; decision."""
+    limits = thresholds(list(tasks))
+    header = "| task (threshold) | seeds | " + " | ".join(f"`{column}`" for column in COLUMNS) + " |"
+    lines = [header, "|---|---|" + "---:|" * len(COLUMNS)]
+    for env_id, seeds in tasks.items():
+        cells = []
+        for column in COLUMNS:
+            task_runs = per_run[(per_run["candidate"] == column) & (per_run["env_id"] == env_id)]
+            if task_runs.empty:
+                cells.append("")
+                continue
+            mean = task_runs["final"].mean()
+            done = len(task_runs) == len(seeds)
+            mark = (" **solved**" if mean >= limits[env_id] else "") if done else f" ({len(task_runs)} of {len(seeds)})"
+            cells.append(f"{mean:,.1f}{mark}")
+        seed_text = ", ".join(map(str, seeds))
+        lines.append(f"| {env_id} ({limits[env_id]:g}) | {seed_text} | " + " | ".join(cells) + " |")
+    rows = [counts(per_run, tasks, column) for column in COLUMNS]
+    lines.append("| tasks solved | | " + " | ".join(str(row[0]) for row in rows) + " |")
+    lines.append("| runs at or above the threshold | | " + " | ".join(f"{row[1]} of {row[2]}" for row in rows) + " |")
+    lines.append("| runs finished | | " + " | ".join(f"{row[2]} of {row[3]}" for row in rows) + " |")
+    return "\n".join(lines) + "\n\n" + decision(per_run, tasks) + "\n"
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--root", type=Path, default=RESULTS, help="the study's folder (default: %(default)s)")
+    parser.add_argument("--queue", type=Path, default=RESULTS / "queue.sh", help="its schedule (default: %(default)s)")
+    args = parser.parse_args(argv)
+    tasks = suite(args.queue)
+    per_run = runs(args.root, tasks)
+    per_run.to_csv(args.root / "runs.csv", index=False)
+    markdown = table(per_run, tasks)
+    (args.root / "table.md").write_text(markdown)
+    print(markdown)
+
+
+if __name__ == "__main__":
+    main()
