@@ -14,10 +14,10 @@ the lab's -200, :func:`~sb3_reinforce.lab.stats.solve_threshold`), MuJoCo: Tians
 """
 
 import argparse
-import importlib.util
 import re
 from pathlib import Path
 
+import mujoco_thresholds
 import pandas as pd
 
 from sb3_reinforce.lab.compare.folder import ComparisonFolder
@@ -58,11 +58,7 @@ def suite(queue: Path = RESULTS / "queue.sh") -> dict[str, list[int]]:
 
 def thresholds(env_ids: list[str]) -> dict[str, float]:
     """The rule's threshold of each task."""
-    spec = importlib.util.spec_from_file_location("mujoco_thresholds", HERE / "mujoco_thresholds.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    published = module.thresholds(source=MUJOCO_SOURCE)
+    published = mujoco_thresholds.thresholds(source=MUJOCO_SOURCE)
     found = {env_id: published[env_id] if env_id in published.index else solve_threshold(env_id) for env_id in env_ids}
     missing = [env_id for env_id, value in found.items() if value is None]
     if missing:
