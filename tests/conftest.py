@@ -3,6 +3,8 @@ import os
 import pytest
 import torch as th
 
+from tests.alone import run_alone_when_marked  # noqa: F401 (a fixture: every test takes its lock)
+
 # Two cores in CI: keep torch from oversubscribing them when pytest-xdist runs workers side by side.
 th.set_num_threads(1)
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")

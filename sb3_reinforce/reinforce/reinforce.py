@@ -454,9 +454,10 @@ class REINFORCE(OnPolicyAlgorithm):
         :raises FloatingPointError: naming the timestep; the gradients are zeroed and the weights unchanged
         """
         parameters = [p for group in optimizer.param_groups for p in group["params"]]
-        max_norm = math.inf if self.max_grad_norm is None else self.max_grad_norm
         try:
-            return th.nn.utils.clip_grad_norm_(parameters, max_norm, error_if_nonfinite=True)
+            if self.max_grad_norm is None:  # the norm only: clipping to inf would multiply every gradient by 1
+                return th.nn.utils.get_total_norm([p.grad for p in parameters if p.grad is not None], error_if_nonfinite=True)
+            return th.nn.utils.clip_grad_norm_(parameters, self.max_grad_norm, error_if_nonfinite=True)
         except RuntimeError as error:
             optimizer.zero_grad()
             raise FloatingPointError(

@@ -41,8 +41,9 @@ VARIANTS: dict[str, str | None] = {"no-baseline": None, "value-baseline": "value
 #: Variant column of the difference list -> the variants an entry applies to
 BASELINE_COLUMN = {"both": tuple(VARIANTS), "none": ("no-baseline",), "value": ("value-baseline",)}
 OUTCOMES = ("xfail", "rerun", "not run")
-#: A test of wall-clock throughput, failed because the machine was busy, runs again this many times, this many
-#: seconds apart (pytest-rerunfailures' ``flaky`` marker); only its ``AssertionError`` is retried, never an exception
+#: A test of wall-clock throughput runs alone (tests/alone.py) and, failed because the machine was busy anyway, runs
+#: again this many times, this many seconds apart (pytest-rerunfailures' ``flaky`` marker); only its
+#: ``AssertionError`` is retried, never an exception
 RERUNS, RERUNS_DELAY_S = 2, 10
 
 #: The collector records here, per variant, the ids of SB3's tests it collected (before any -k/-m selection)
@@ -218,6 +219,7 @@ class SB3TestModule(pytest.Module):
                         node.add_marker(
                             pytest.mark.flaky(reruns=RERUNS, reruns_delay=RERUNS_DELAY_S, only_rerun=["AssertionError"])
                         )
+                        node.add_marker(pytest.mark.alone)  # no other test beside it (tests/alone.py)
                     else:
                         node.add_marker(pytest.mark.skip(reason=f"not run: {difference.reason}"))
                     break

@@ -34,7 +34,7 @@ def test_every_difference_matches_a_collected_test(request: pytest.FixtureReques
 
 
 def test_rerun_rows_mark_their_tests_flaky(request: pytest.FixtureRequest) -> None:
-    """A ``rerun`` row gives its tests pytest-rerunfailures' marker (retrying a failed assertion only); others get none."""
+    """A ``rerun`` row gives its tests pytest-rerunfailures' marker (on a failed assertion) and ``alone``; others neither."""
     ids = suite_ids(request.config)
     rerun_rows = [difference for difference in read_differences() if difference.outcome == "rerun"]
     rerun = {
@@ -53,9 +53,10 @@ def test_rerun_rows_mark_their_tests_flaky(request: pytest.FixtureRequest) -> No
         if (variant, test_id) in rerun:
             assert marker is not None, item.nodeid
             assert marker.kwargs == dict(reruns=RERUNS, reruns_delay=RERUNS_DELAY_S, only_rerun=["AssertionError"])
+            assert item.get_closest_marker("alone") is not None, item.nodeid
             selected += 1
         else:
-            assert marker is None, item.nodeid
+            assert marker is None and item.get_closest_marker("alone") is None, item.nodeid
     if not selected:
         pytest.skip("the tests of the rerun rows are not selected in this session")
 
