@@ -306,6 +306,15 @@ def test_malloc_trim_tiny_budget(tmp_path: Path) -> None:
     assert all(int(row["steps"]) >= 500 and float(row["train_s"]) > 0 for row in rows)
 
 
+def test_one_step_episodes_reads_the_logged_fps(tmp_path: Path) -> None:
+    # One fresh model per algorithm: the fps SB3 logged at the end of learn(100); a 1 ms sleep a step bounds it by 1000
+    out = tmp_path / "one_step_episodes.csv"
+    load("one_step_episodes").main(["--models", "1", "--csv", str(out)])
+    rows = read_rows(out)
+    assert [row["algorithm"] for row in rows] == ["A2C", "REINFORCE", "REINFORCE value"]
+    assert all(0 < float(row["fps"]) <= 1000 for row in rows)
+
+
 def test_only_unfinished_runs_keep_a_checkpoint() -> None:
     # benchmarks/README.md's rule: the models under benchmarks/ are checkpoints of runs still unfinished (no summary
     # JSON beside them); a finished run's checkpoint is removed (the shipped agents are in rl-trained-agents/)
