@@ -9,7 +9,9 @@ candidates=("$@")
 [ ${#candidates[@]} -gt 0 ] || candidates=(entry v10 e2 e2_v10 e4)
 for seed in 100 101 102 103; do
     for candidate in "${candidates[@]}"; do
-        args=(--env Acrobot-v1 --algos reinforce --config "reinforce=benchmarks/configs/acrobot_speed/$candidate.yml"
+        config=(--config "reinforce=benchmarks/configs/acrobot_speed/$candidate.yml")
+        [ "$candidate" = entry ] && config=()   # the zoo entry itself (zoo_configs/reinforce.yml), compare's default
+        args=(--env Acrobot-v1 --algos reinforce "${config[@]}"
             --seeds 1 --first-seed "$seed" --budget 1000000 --eval-freq 50000 --eval-episodes 5
             --out "benchmarks/results/acrobot_speed/$candidate" --workers 1 --no-progress)
         echo "\$ sb3-reinforce compare ${args[*]}"
