@@ -78,6 +78,21 @@ def test_iqm_is_scipys_trim_mean(values: list[float]) -> None:
     assert got == expected or (np.isnan(got) and np.isnan(expected))
 
 
+_ROW_VALUE = st.floats(allow_nan=True, allow_infinity=False, width=64)
+
+
+@given(st.integers(1, 12).flatmap(lambda n: st.lists(st.lists(_ROW_VALUE, min_size=n, max_size=n), min_size=1, max_size=6)))
+def test_iqm_along_an_axis_is_each_rows_iqm(rows: list[list[float]]) -> None:
+    # What scipy's bootstrap passes a statistic that takes `axis`: every resample at once, one IQM per row
+    array = np.asarray(rows)
+    with np.errstate(all="ignore"):
+        got = iqm(array, axis=1)
+        expected = [iqm(row) for row in rows]
+    np.testing.assert_array_equal(got, expected)
+    # vectorized or called once per resample: the same interval (NaN where a value is)
+    np.testing.assert_array_equal(bootstrap_ci(array[0], iqm), bootstrap_ci(array[0], lambda x: iqm(x)))
+
+
 def test_bootstrap_ci_hand_computed() -> None:
     # Resampled means of [0, 1]: 0 (p=1/4), 0.5 (p=1/2), 1 (p=1/4): the 5% and 95% quantiles are 0 and 1.
     assert bootstrap_ci([0.0, 1.0], np.mean, confidence=0.9) == (0.0, 1.0)
