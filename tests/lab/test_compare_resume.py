@@ -38,6 +38,10 @@ def _stop_after(n_evaluations: int) -> Callable[[int], None]:
     return progress
 
 
+def _training_log(runs_dir: Path, spec: RunSpec) -> list[dict[str, float]]:
+    return [json.loads(line) for line in (runs_dir / f"{spec.name}.train.jsonl").read_text().splitlines()]
+
+
 def _checkpoint_files(runs_dir: Path, spec: RunSpec) -> list[Path]:
     return sorted(runs_dir.glob(f"{spec.name}.checkpoint*"))
 
@@ -56,9 +60,13 @@ def test_interrupted_run_resumes_from_its_last_evaluation(tmp_path: Path, algo: 
     assert 2000 <= stopped_at < 3000 and state["cpu_time_s"] > 0
     before = pd.read_csv(runs_dir / f"{spec.name}.csv")
     assert list(before["eval_index"]) == [0, 1, 2]
-    # A row written after the checkpoint (a crash between the two) is dropped on resume
+    log_before = _training_log(runs_dir, spec)
+    assert [record["eval_index"] for record in log_before] == [0, 1, 2]
+    # A row written after the checkpoint (a crash between the two) is dropped on resume, in both files
     with (runs_dir / f"{spec.name}.csv").open("a") as f:
         f.write(",".join(["CartPole-v1", algo, "3", "3", "9999", "1", "1", "1", "0", "1", "0", "1"]) + "\n")
+    with (runs_dir / f"{spec.name}.train.jsonl").open("a") as f:
+        f.write(json.dumps({"eval_index": 3, "steps": 9999}) + "\n")
 
     summary = runner.run(spec, tmp_path)
     assert summary["resumed_at_steps"] == [stopped_at]
@@ -72,6 +80,15 @@ def test_interrupted_run_resumes_from_its_last_evaluation(tmp_path: Path, algo: 
     assert list(after["wall_time_s"]) == sorted(after["wall_time_s"])  # training time goes on counting
     assert after["episodes"].iloc[3] > after["episodes"].iloc[2]
     assert _checkpoint_files(runs_dir, spec) == []  # finished: no checkpoint left
+    # The training log: a line per evaluation, at its steps; the last update's losses and the training episodes' mean
+    # return from the first evaluation after an update on (the untrained one has none)
+    log = _training_log(runs_dir, spec)
+    assert log[:3] == log_before
+    assert [(r["eval_index"], r["steps"]) for r in log] == list(zip(after["eval_index"], after["steps"], strict=True))
+    assert set(log[0]) == {"eval_index", "steps"}
+    loss = "train/policy_loss" if algo == "reinforce" else "train/policy_gradient_loss"
+    assert all(loss in record and record["rollout/ep_rew_mean"] > 0 for record in log[1:]), log
+    assert "train/std" not in log[1]  # CartPole's actions are discrete: no Gaussian
 
 
 def test_a_run_may_resume_with_the_other_vec_env(tmp_path: Path) -> None:

@@ -4,6 +4,9 @@ specification is. The command, the runner, the report and the tables read and wr
 
     OUT/comparison.json                  the environment and the solve threshold
     OUT/per_run/<algo>_seed<seed>.csv    a run's evaluations, a row appended after each
+    OUT/per_run/<algo>_seed<seed>.train.jsonl
+                                         a run's training diagnostics at each evaluation (the logger's last train/*
+                                         values, the training episodes' mean return and length), a line appended each
     OUT/per_run/<algo>_seed<seed>.json   a finished run's summary: its presence marks the run finished
     OUT/per_run/<algo>_seed<seed>.checkpoint.zip, .checkpoint_vecnormalize.pkl, .checkpoint.json
                                          an unfinished run's last checkpoint (the JSON written last)
@@ -272,6 +275,10 @@ class ComparisonFolder:
         """A run's CSV of evaluations."""
         return self.runs_dir / f"{spec.name}.csv"
 
+    def training_log_path(self, spec: RunSpec) -> Path:
+        """A run's training diagnostics, one JSON line per evaluation."""
+        return self.runs_dir / f"{spec.name}.train.jsonl"
+
     def summary_path(self, spec: RunSpec) -> Path:
         """A finished run's summary."""
         return self.runs_dir / f"{spec.name}.json"
@@ -325,8 +332,8 @@ class ComparisonFolder:
 
     def start_evaluations(self, spec: RunSpec, resumed_eval_index: int | None) -> None:
         """
-        Start a run's CSV with its header, or, for a run resuming at ``resumed_eval_index``, drop the rows of the
-        evaluations made after its checkpoint.
+        Start a run's CSV with its header and an empty training log, or, for a run resuming at
+        ``resumed_eval_index``, drop from both the evaluations made after its checkpoint.
         """
         self.runs_dir.mkdir(parents=True, exist_ok=True)
         path = self.evaluations_path(spec)
@@ -339,11 +346,20 @@ class ComparisonFolder:
         buffer = io.StringIO()
         csv.writer(buffer).writerows(kept)
         write_replacing(path, buffer.getvalue().encode())
+        log = self.training_log_path(spec)
+        lines = log.read_text().splitlines() if resumed_eval_index is not None and log.exists() else []
+        kept_lines = [line + "\n" for line in lines if json.loads(line)["eval_index"] < (resumed_eval_index or 0)]
+        write_replacing(log, "".join(kept_lines).encode())
 
     def append_evaluation(self, spec: RunSpec, row: list[Any]) -> None:
         """Append one evaluation (the values of :data:`RESULT_COLUMNS`) to a run's CSV."""
         with self.evaluations_path(spec).open("a", newline="") as f:
             csv.writer(f).writerow(row)
+
+    def append_training_log(self, spec: RunSpec, record: dict[str, Any]) -> None:
+        """Append one evaluation's training diagnostics (``eval_index``, ``steps``, then any numbers) to the run's log."""
+        with self.training_log_path(spec).open("a") as f:
+            f.write(json.dumps(record) + "\n")
 
     def write_summary(self, spec: RunSpec, summary: dict[str, Any]) -> None:
         """Write a finished run's summary (the mark that it is finished)."""

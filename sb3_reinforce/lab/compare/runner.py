@@ -2,9 +2,9 @@
 One run of the comparison (one algorithm, one seed): resume it from its checkpoint if it has one, train it with its
 evaluation callback, and summarize it. Every ``eval_freq`` steps the callback evaluates ``n_eval_episodes``
 deterministic then as many stochastic episodes on a separate environment, appends the evaluation to the run's CSV and
-saves a checkpoint. The run is built by :func:`~sb3_reinforce.lab.compare.experiment.build_run`; its files are the
-comparison folder's (:mod:`sb3_reinforce.lab.compare.folder`). Off-policy runs are not checkpointed: ``model.save``
-omits the replay buffer.
+the training's diagnostics to its training log, and saves a checkpoint. The run is built by
+:func:`~sb3_reinforce.lab.compare.experiment.build_run`; its files are the comparison folder's
+(:mod:`sb3_reinforce.lab.compare.folder`). Off-policy runs are not checkpointed: ``model.save`` omits the replay buffer.
 """
 
 import os
@@ -14,6 +14,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import psutil
 import torch as th
 from stable_baselines3.common.base_class import BaseAlgorithm
@@ -108,6 +109,23 @@ class ComparisonEvalCallback(BaseCallback):
             self._evaluate()
         return not self.reached_stop_at  # False ends learn()
 
+    def training_diagnostics(self) -> dict[str, float]:
+        """
+        What the training looks like at an evaluation: the logger's latest ``train/*`` numbers (the last update's:
+        losses, entropy, the Gaussian's std, ...; none before the first update) and the mean return and length of the
+        last training episodes (SB3's ``ep_info_buffer``, ``stats_window_size`` of them).
+        """
+        values = {
+            key: float(value)
+            for key, value in self.model.logger.name_to_value.items()
+            if key.startswith("train/") and isinstance(value, int | float | np.number)
+        }
+        episodes = self.model.ep_info_buffer
+        if episodes:
+            values["rollout/ep_rew_mean"] = float(np.mean([episode["r"] for episode in episodes]))
+            values["rollout/ep_len_mean"] = float(np.mean([episode["l"] for episode in episodes]))
+        return values
+
     def evaluate_if_trained_since(self) -> None:
         """The final evaluation, at the end of the budget, unless the last one was made at the last step or stopped the run."""
         if self.last_eval_steps < self.num_timesteps and not self.reached_stop_at:
@@ -130,6 +148,8 @@ class ComparisonEvalCallback(BaseCallback):
             round(self.peak_rss_mb, 1),
         ]
         self.folder.append_evaluation(self.spec, row)
+        record = dict(eval_index=self.eval_index, steps=self.num_timesteps, **self.training_diagnostics())
+        self.folder.append_training_log(self.spec, record)
         # not on the untrained policy's evaluation: it can score by chance, and the tables leave it out
         stop_at = self.spec.stop_at
         self.reached_stop_at = stop_at is not None and self.num_timesteps > 0 and results[0] >= stop_at
