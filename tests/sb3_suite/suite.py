@@ -42,8 +42,8 @@ VARIANTS: dict[str, str | None] = {"no-baseline": None, "value-baseline": "value
 BASELINE_COLUMN = {"both": tuple(VARIANTS), "none": ("no-baseline",), "value": ("value-baseline",)}
 OUTCOMES = ("xfail", "rerun", "not run")
 #: A test of wall-clock throughput runs alone (tests/alone.py) and, failed because the machine was busy anyway, runs
-#: again this many times, this many seconds apart (pytest-rerunfailures' ``flaky`` marker: 2 reruns 10 s apart all
-#: logged 80 fps in one CI run, so the load outlasts 20 s); only its
+#: again this many times, this many seconds apart (pytest-rerunfailures' ``flaky`` marker; differences.md gives the
+#: CI runs whose load outlasted fewer, shorter reruns); only its
 #: ``AssertionError`` is retried, never an exception
 RERUNS, RERUNS_DELAY_S = 4, 30
 
