@@ -1,9 +1,10 @@
 """
 Per-run scores of comparison folders, as the pilots' READMEs and docs/results.md quote them: for each run, the
-first evaluation at or above the threshold (counted after training started, as ``sb3-reinforce report``), the
-mean of the last 5 evaluations (the pilots' tuning score), the final evaluation (deterministic and sampled
-actions), the best one, how many evaluations from ``--from-steps`` on are at or above the threshold, and with
-``--mean-at`` the mean of the deterministic evaluations at those steps (CarRacing's target reads 900k, 950k and 1M).
+first evaluation at or above the threshold (counted after training started, as ``sb3-reinforce report``) and the
+training seconds to it (its ``wall_time_s``: evaluations excluded), the mean of the last 5 evaluations (the
+pilots' tuning score), the final evaluation (deterministic and sampled actions), the best one, how many
+evaluations from ``--from-steps`` on are at or above the threshold, and with ``--mean-at`` the mean of the
+deterministic evaluations at those steps (CarRacing's target reads 900k, 950k and 1M).
 
     python benchmarks/pilot_scores.py benchmarks/results/mountaincar_pilot/* --threshold -110
     python benchmarks/pilot_scores.py benchmarks/results/verify_acrobot --threshold -100
@@ -57,6 +58,7 @@ def run_scores(
         run = run.sort_values("eval_index")
         trained = run[run["eval_index"] > 0]
         first = first_crossing(trained["steps"], trained["mean_return"], threshold)
+        seconds = trained.loc[trained["steps"] == first, "wall_time_s"]
         late = run[run["steps"] >= from_steps]
         rows.append(
             {
@@ -65,6 +67,7 @@ def run_scores(
                 "seed": seed,
                 "steps": int(run["steps"].iloc[-1]),
                 "first >= threshold": int(first) if first < float("inf") else "never",
+                "training s to it": round(float(seconds.iloc[0]), 1) if len(seconds) else math.nan,
                 "last 5": round(run["mean_return"].iloc[-5:].mean(), 1),
                 "final": round(run["mean_return"].iloc[-1], 1),
                 "final sampled": round(run["mean_return_stochastic"].iloc[-1], 1),
@@ -98,8 +101,13 @@ def main() -> None:
     )
     with pd.option_context("display.width", 250, "display.max_columns", None, "display.max_rows", None):
         print(table.to_string(index=False))
-        last5 = table.groupby(["folder", "algo"], sort=False)["last 5"].agg(["mean", "count"]).round(1)
-        print("\nmean of the runs' last-5 scores (count: seeds):\n" + last5.to_string())
+        grouped = table.groupby(["folder", "algo"], sort=False)
+        per_folder = grouped["last 5"].agg(["mean", "count"]).round(1)
+        per_folder["median training s to first"] = grouped["training s to it"].median().round(1)
+        print(
+            "\nmean of the runs' last-5 scores (count: seeds), median training seconds to the first crossing:\n"
+            + per_folder.to_string()
+        )
 
 
 if __name__ == "__main__":

@@ -186,6 +186,12 @@ def test_pilot_scores_of_committed_runs() -> None:
     assert by_seed.loc[100, "first >= threshold"] == 50_000 and by_seed.loc[101, "first >= threshold"] == "never"
     assert by_seed.loc[100, "last 5"] == -77.6 and by_seed.loc[101, "final"] == -500.0
     assert list(scores["evals from 800,000 >= threshold"]) == ["6/6", "0/5"]
+    # training seconds to the first crossing: that evaluation's wall_time_s (seed 100's at 50k), none where never
+    evaluations = pd.read_csv(
+        BENCHMARKS / "results" / "acrobot_pilot" / "c_value20_lin3e-3_8env" / "per_run" / "reinforce_seed100.csv"
+    )
+    assert by_seed.loc[100, "training s to it"] == round(evaluations.set_index("steps").loc[50_000, "wall_time_s"], 1)
+    assert math.isnan(by_seed.loc[101, "training s to it"])
 
 
 def test_pilot_scores_mean_at_reads_the_periodic_evaluations() -> None:
