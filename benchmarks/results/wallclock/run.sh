@@ -6,10 +6,20 @@
 # each algorithm its own zoo budget, evaluated as the results table evaluates (5 deterministic episodes every
 # budget/20 steps), each run stopped at its first evaluation at or above the threshold. Pause every background run
 # first (SIGSTOP its process group). Then: python benchmarks/wallclock_table.py. Run from the repository root.
+# A speed study's pick in REINFORCE's place (the study's rule 3):
+#   CANDIDATE=NAME CANDIDATE_CONFIG=FILE run.sh repeat1 ENV ...
+# trains REINFORCE from that zoo file (compare's --config) beside the same PPO and A2C entries, into
+# candidates/NAME/REPEAT/ENV/ (then: python benchmarks/wallclock_table.py --root benchmarks/results/wallclock/candidates/NAME).
 set -e
 cd "$(dirname "$0")/../../.."
 repeat=${1:?usage: run.sh repeat1 | repeat2 [ENV ...]}
 shift
+out=benchmarks/results/wallclock
+config=()
+if [ -n "${CANDIDATE:-}" ]; then
+    out=$out/candidates/$CANDIDATE
+    config=(--config "reinforce=${CANDIDATE_CONFIG:?CANDIDATE needs CANDIDATE_CONFIG: a zoo file}")
+fi
 classic=(CartPole-v1 Acrobot-v1 MountainCar-v0 Pendulum-v1 LunarLander-v3 LunarLanderContinuous-v3)
 mapfile -t mujoco < <(python benchmarks/mujoco_thresholds.py --source "Tianshou REINFORCE" HalfCheetah-v4 Hopper-v4)
 envs=("$@")
@@ -20,8 +30,8 @@ for env in "${envs[@]}"; do
     for line in "${mujoco[@]}"; do
         [ "${line%% *}" = "$env" ] && { algos=reinforce,ppo; threshold=(--threshold "${line##* }"); }
     done
-    args=(--env "$env" --algos "$algos" --seeds 3 --first-seed 7000 --budget zoo --eval-episodes 5 "${threshold[@]}"
-        --stop-at-threshold --out "benchmarks/results/wallclock/$repeat/$env" --workers 1 --no-progress)
+    args=(--env "$env" --algos "$algos" "${config[@]}" --seeds 3 --first-seed 7000 --budget zoo --eval-episodes 5 "${threshold[@]}"
+        --stop-at-threshold --out "$out/$repeat/$env" --workers 1 --no-progress)
     echo "\$ sb3-reinforce compare ${args[*]}"
     sb3-reinforce compare "${args[@]}"
 done
