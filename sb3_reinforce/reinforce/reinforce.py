@@ -148,18 +148,24 @@ class REINFORCE(OnPolicyAlgorithm):
         self.max_rollout_steps = max_rollout_steps
 
         if _init_setup_model:
+            self._check_batch_for_baseline()
             self._setup_model()
 
     #: A running episode this long, as a share of ``max_rollout_steps`` per environment, is warned about.
     long_episode_share: ClassVar[float] = 0.1
 
-    def _setup_model(self) -> None:
-        _check_spaces(self.observation_space, self.action_space)
+    def _check_batch_for_baseline(self) -> None:
+        """Refuse a leave-one-out baseline whose batch would hold one episode: checked when the model is built for
+        training and when it starts to learn, not on ``load``, so that a model trained on several environments can
+        act (``predict``, ``evaluate_policy``, the zoo's ``enjoy``) on one."""
         if self.baseline == "loo" and self.n_episodes * self.n_envs < 2:
             raise ValueError(
                 f"baseline='loo' compares each episode with the other episodes of its batch, but a batch holds "
                 f"n_episodes * n_envs = {self.n_episodes} * {self.n_envs} = 1 episode: set n_episodes >= 2 or n_envs >= 2"
             )
+
+    def _setup_model(self) -> None:
+        _check_spaces(self.observation_space, self.action_space)
         self._setup_lr_schedule()
         self.set_random_seed(self.seed)
 
@@ -221,6 +227,7 @@ class REINFORCE(OnPolicyAlgorithm):
         tb_log_name: str = "run",
         progress_bar: bool = False,
     ) -> tuple[int, BaseCallback]:
+        self._check_batch_for_baseline()  # the environment may have changed since construction (load, set_env)
         env_will_reset = reset_num_timesteps or self._last_obs is None
         result = super()._setup_learn(total_timesteps, callback, reset_num_timesteps, tb_log_name, progress_bar)
         if env_will_reset:

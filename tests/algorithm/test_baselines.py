@@ -3,11 +3,14 @@ The baselines keep REINFORCE's gradient unbiased, and reduce its variance: check
 a small MDP, computed by dynamic programming. Also the value baseline's own fitting steps (``n_value_steps``).
 """
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import torch as th
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.envs import FakeImageEnv, IdentityEnv
 from stable_baselines3.common.evaluation import evaluate_policy
 from stable_baselines3.common.vec_env import DummyVecEnv
@@ -153,6 +156,26 @@ def test_loo_needs_two_episodes_per_batch() -> None:
     with pytest.raises(ValueError, match=r"baseline='loo'.*n_episodes >= 2 or n_envs >= 2"):
         REINFORCE("MlpPolicy", "CartPole-v1", baseline="loo")
     REINFORCE("MlpPolicy", "CartPole-v1", baseline="loo", n_episodes=2).learn(100)
+
+
+def test_loo_model_acts_on_one_env_but_does_not_learn_there(tmp_path: Path) -> None:
+    # A model trained with 2 envs loads with 1 (predict, evaluate_policy, the zoo's enjoy and record-video), but
+    # learning there would give one-episode batches: refused before any step, as the constructor refuses them, until
+    # the batch holds two episodes again
+    model = REINFORCE("MlpPolicy", make_vec_env("CartPole-v1", n_envs=2, seed=0), baseline="loo", seed=0)
+    model.learn(200)
+    model.save(tmp_path / "loo")
+    single = make_vec_env("CartPole-v1", n_envs=1, seed=1)
+    loaded = REINFORCE.load(tmp_path / "loo", env=single)
+    mean_return, _ = evaluate_policy(loaded, single, n_eval_episodes=2)
+    assert mean_return > 0
+    steps = loaded.num_timesteps
+    with pytest.raises(ValueError, match=r"baseline='loo'.*n_episodes \* n_envs = 1 \* 1 = 1 episode"):
+        loaded.learn(100, reset_num_timesteps=False)
+    assert loaded.num_timesteps == steps
+    loaded.n_episodes = 2  # two episodes of the one env per batch: it learns
+    loaded.learn(100, reset_num_timesteps=False)
+    assert loaded.num_timesteps > steps
 
 
 @pytest.mark.parametrize(
