@@ -227,7 +227,7 @@ class REINFORCE(OnPolicyAlgorithm):
         tb_log_name: str = "run",
         progress_bar: bool = False,
     ) -> tuple[int, BaseCallback]:
-        self._check_batch_for_baseline()  # the environment may have changed since construction (load, set_env)
+        self._check_batch_for_baseline()  # load may have given fewer envs, or n_episodes changed since construction
         env_will_reset = reset_num_timesteps or self._last_obs is None
         result = super()._setup_learn(total_timesteps, callback, reset_num_timesteps, tb_log_name, progress_bar)
         if env_will_reset:
