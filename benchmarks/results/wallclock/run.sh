@@ -10,6 +10,8 @@
 #   CANDIDATE=NAME CANDIDATE_CONFIG=FILE run.sh repeat1 ENV ...
 # trains REINFORCE from that zoo file (compare's --config) beside the same PPO and A2C entries, into
 # candidates/NAME/REPEAT/ENV/ (then: python benchmarks/wallclock_table.py --root benchmarks/results/wallclock/candidates/NAME).
+# ALGOS=reinforce,ppo run.sh ...: those algorithms only (LunarLanderContinuous-v3: A2C's zoo budget there is 5M steps,
+# about 1.5 hours a repeat on its own, and in 1M steps it reached 200 on none of 5 seeds: ../verify_llc; README.md here).
 set -e
 cd "$(dirname "$0")/../../.."
 repeat=${1:?usage: run.sh repeat1 | repeat2 [ENV ...]}
@@ -25,7 +27,7 @@ mapfile -t mujoco < <(python benchmarks/mujoco_thresholds.py --source "Tianshou 
 envs=("$@")
 [ ${#envs[@]} -gt 0 ] || envs=("${classic[@]}" "${mujoco[@]%% *}")
 for env in "${envs[@]}"; do
-    algos=reinforce,ppo,a2c
+    algos=${ALGOS:-reinforce,ppo,a2c}
     threshold=()
     for line in "${mujoco[@]}"; do
         [ "${line%% *}" = "$env" ] && { algos=reinforce,ppo; threshold=(--threshold "${line##* }"); }
