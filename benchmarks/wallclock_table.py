@@ -3,24 +3,48 @@ Issue 64's wall-clock table: the training seconds each zoo entry needs to reach 
 comparison folders of ``results/wallclock/run.sh`` (``REPEAT/ENV/``, runs stopped at their first deterministic
 evaluation at or above the threshold, ``--stop-at-threshold``).
 
-Per run (a row of ``results/wallclock/runs.csv``): the steps and training seconds (evaluations excluded) at the first
-evaluation past step 0 at or above the threshold (``inf``: not reached within the budget), and the machine's 1-minute
-load average at the run's start and end. The table (``results/wallclock/table.md``) gives per env and algorithm the
-median over seeds of each repeat, and REINFORCE's median against PPO's.
+Per run (a row of ``ROOT/runs.csv``): the steps and training seconds (evaluations excluded) at the first evaluation
+past step 0 at or above the threshold (``inf``: not reached within the budget), and the machine's 1-minute load
+average at the run's start and end. ``ROOT/table.md`` gives per env and algorithm the median over seeds of each
+repeat, and REINFORCE's median against PPO's.
+
+The page's table (``--into``) has one row per env: REINFORCE's, PPO's and A2C's medians, REINFORCE's against PPO's
+per repeat, and whether it is at or below PPO's in both repeats (the benchmark's rule). An env run again with a
+changed entry (``--current FOLDER``, a root of the same layout, its PPO and A2C run beside it) takes that folder's
+runs of the env instead of ``--root``'s; the first folder naming an env wins.
 
     python benchmarks/wallclock_table.py
+    python benchmarks/wallclock_table.py --current benchmarks/results/wallclock/candidates/e4_loo --into README.md
 """
 
 import argparse
 import math
+import re
 from pathlib import Path
 
+import gymnasium as gym
 import pandas as pd
 
 from sb3_reinforce.lab.compare.folder import ComparisonFolder
+from sb3_reinforce.lab.report import write_between_markers
 from sb3_reinforce.lab.stats import first_crossing, quantile_with_inf
 
 RESULTS = Path(__file__).parent / "results" / "wallclock"
+REPOSITORY = Path(__file__).resolve().parents[1]
+#: The markers between which ``--into`` writes the page's table
+MARKER = "wallclock"
+REPEATS = 2
+
+
+def _shown(path: Path) -> str:
+    """A folder as the pages name it: relative to the repository where it lies inside it."""
+    resolved = path.resolve()
+    return resolved.relative_to(REPOSITORY).as_posix() if resolved.is_relative_to(REPOSITORY) else path.as_posix()
+
+
+def _cpu(name: str) -> str:
+    """A processor's make and family, as SB3's system info names it: "Intel(R) Xeon(R) Processor" -> "Intel Xeon"."""
+    return " ".join(re.sub(r"\((R|TM)\)", "", name).split()[:2])
 
 
 def runs(root: Path) -> pd.DataFrame:
@@ -38,6 +62,7 @@ def runs(root: Path) -> pd.DataFrame:
             load_start, load_end = summary.get("load_1min", [math.nan, math.nan])
             rows.append(
                 dict(
+                    folder=_shown(root),
                     repeat=folder_path.parent.name,
                     env_id=env_id,
                     threshold=threshold,
@@ -49,9 +74,39 @@ def runs(root: Path) -> pd.DataFrame:
                     train_time_s=summary["train_time_s"],
                     load_1min_start=load_start,
                     load_1min_end=load_end,
+                    cpu=_cpu(summary.get("system", {}).get("CPU", "")),
                 )
             )
     return pd.DataFrame(rows)
+
+
+def medians(env_runs: pd.DataFrame) -> dict[str, dict[str, float]]:
+    """Per algorithm, per repeat: the median over seeds of the training seconds to the threshold (inf: not reached)."""
+    return {
+        str(algo): {
+            str(repeat): quantile_with_inf(list(repeat_runs["seconds_to_threshold"]), 0.5)
+            for repeat, repeat_runs in algo_runs.groupby("repeat")
+        }
+        for algo, algo_runs in env_runs.groupby("algo")
+    }
+
+
+def _seconds(value: float) -> str:
+    return "not reached" if math.isinf(value) else f"{value:,.1f}"
+
+
+def _ratios(per_algo: dict[str, dict[str, float]], algo: str) -> list[float]:
+    """``algo``'s median over PPO's, per repeat both ran (inf where ``algo`` did not reach, nan where PPO did not)."""
+    ppo = per_algo.get("ppo", {})
+    ratios = []
+    for repeat, seconds in sorted(per_algo.get(algo, {}).items()):
+        if repeat in ppo:
+            ratios.append(math.nan if math.isinf(ppo[repeat]) else seconds / ppo[repeat])
+    return ratios
+
+
+def _ratio(value: float) -> str:
+    return "-" if math.isnan(value) else ("not reached" if math.isinf(value) else f"{value:.2f}x")
 
 
 def table(per_run: pd.DataFrame) -> str:
@@ -59,36 +114,93 @@ def table(per_run: pd.DataFrame) -> str:
     lines = ["| env (threshold) | algorithm | seeds | median training s to reach, per repeat | load (1 min) | vs PPO |"]
     lines.append("|---|---|---|---|---|---|")
     for (env_id, threshold), env_runs in per_run.groupby(["env_id", "threshold"], sort=False):
-        medians: dict[str, dict[str, float]] = {}
-        for algo in sorted(env_runs["algo"].unique(), key=lambda name: (name != "ppo", name)):  # PPO first: the ratio's
+        per_algo = medians(env_runs)
+        for algo in sorted(per_algo, key=lambda name: (name != "ppo", name)):  # PPO first: the ratios are to it
             algo_runs = env_runs[env_runs["algo"] == algo]
-            per_repeat = {
-                repeat: quantile_with_inf(list(runs_["seconds_to_threshold"]), 0.5)
-                for repeat, runs_ in algo_runs.groupby("repeat")
-            }
-            medians[algo] = per_repeat
-            shown = ", ".join("not reached" if math.isinf(v) else f"{v:,.1f}" for v in per_repeat.values())
+            shown = ", ".join(_seconds(v) for _, v in sorted(per_algo[algo].items()))
             seeds = f"{algo_runs['seed'].nunique()} ({algo_runs['seed'].min()}-{algo_runs['seed'].max()})"
             load = f"{algo_runs['load_1min_start'].min():.2f}-{algo_runs['load_1min_start'].max():.2f}"
-            ratio = ""
-            if algo != "ppo" and "ppo" in medians:
-                pairs = [(v, medians["ppo"][r]) for r, v in per_repeat.items() if r in medians["ppo"]]
-                ratio = ", ".join(f"{v / ppo:.2f}x" if math.isfinite(v) and math.isfinite(ppo) else "-" for v, ppo in pairs)
+            ratio = "" if algo == "ppo" else ", ".join(_ratio(r) for r in _ratios(per_algo, algo))
             lines.append(f"| {env_id} ({threshold:g}) | {algo.upper()} | {seeds} | {shown} | {load} | {ratio} |")
+    return "\n".join(lines) + "\n"
+
+
+def current_runs(root_runs: pd.DataFrame, candidates: list[pd.DataFrame]) -> pd.DataFrame:
+    """Every env's runs from the first of ``candidates`` (then ``root_runs``) that holds the env."""
+    chosen: list[pd.DataFrame] = []
+    seen: set[str] = set()
+    for source in [*candidates, root_runs]:
+        if source.empty:
+            continue
+        fresh = source[~source["env_id"].isin(seen)]
+        seen.update(fresh["env_id"])
+        chosen.append(fresh)
+    return pd.concat(chosen, ignore_index=True)
+
+
+def _is_mujoco(env_id: str) -> bool:
+    return str(gym.spec(env_id).entry_point).startswith("gymnasium.envs.mujoco")
+
+
+def _algo_cell(env_runs: pd.DataFrame, per_algo: dict[str, dict[str, float]], algo: str) -> str:
+    if algo not in per_algo:
+        return "-"
+    cell = ", ".join(_seconds(v) for _, v in sorted(per_algo[algo].items()))
+    algo_runs = env_runs[env_runs["algo"] == algo]
+    reached = int(algo_runs["seconds_to_threshold"].map(math.isfinite).sum())
+    return cell if reached == len(algo_runs) else f"{cell} ({reached} of {len(algo_runs)} runs reach)"
+
+
+def page_table(per_run: pd.DataFrame) -> str:
+    """
+    Markdown for the pages: one row per env (the classic tasks, then MuJoCo's, each alphabetical), the medians over
+    seeds of each repeat, REINFORCE's against PPO's and the rule's verdict: at or below PPO's in both repeats.
+    """
+    lines = [
+        "| env (threshold) | REINFORCE | PPO | A2C | REINFORCE / PPO | at or below PPO | load (1 min) | CPU "
+        "| REINFORCE's entry |",
+        "|---|---:|---:|---:|---|---|---|---|---|",
+    ]
+    envs = per_run[["env_id", "threshold"]].drop_duplicates().itertuples(index=False)
+    for env_id, threshold in sorted(envs, key=lambda env: (_is_mujoco(env[0]), env[0])):
+        env_runs = per_run[per_run["env_id"] == env_id]
+        per_algo = medians(env_runs)
+        ratios = _ratios(per_algo, "reinforce")
+        if len(ratios) < REPEATS:
+            verdict = f"{len(ratios)} of {REPEATS} repeats run"
+        else:
+            verdict = "yes" if all(r <= 1 for r in ratios) else "**no**"  # nan (PPO not reached) compares False
+        cells = [_algo_cell(env_runs, per_algo, algo) for algo in ("reinforce", "ppo", "a2c")]
+        load = f"{env_runs['load_1min_start'].min():.2f}-{env_runs['load_1min_start'].max():.2f}"
+        cpus = ", ".join(sorted(set(env_runs["cpu"])))
+        folder = env_runs.loc[env_runs["algo"] == "reinforce", "folder"].iloc[0]
+        ratio = ", ".join(_ratio(r) for r in ratios)
+        lines.append(
+            f"| {env_id} ({threshold:g}) | {' | '.join(cells)} | {ratio} | {verdict} | {load} | {cpus} | `{folder}` |"
+        )
     return "\n".join(lines) + "\n"
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--root", type=Path, default=RESULTS)
+    replaces = "a root of the same layout whose envs' runs replace --root's on the page (repeatable)"
+    parser.add_argument("--current", type=Path, action="append", default=[], metavar="FOLDER", help=replaces)
+    into = f"a markdown page to write the table into, between <!-- {MARKER} --> markers (repeatable)"
+    parser.add_argument("--into", type=Path, action="append", default=[], metavar="PAGE", help=into)
     args = parser.parse_args(argv)
+    for page in args.into:  # before any writing: a page without the markers is a mistake in the command
+        if f"<!-- {MARKER} -->" not in page.read_text():
+            raise SystemExit(f"--into {page}: no <!-- {MARKER} --> ... <!-- /{MARKER} --> markers in it")
     per_run = runs(args.root)
     if per_run.empty:
         raise SystemExit(f"no finished runs under {args.root}")
     per_run.to_csv(args.root / "runs.csv", index=False)
-    markdown = table(per_run)
-    (args.root / "table.md").write_text(markdown)
-    print(markdown)
+    (args.root / "table.md").write_text(table(per_run))
+    page = page_table(current_runs(per_run, [runs(folder) for folder in args.current]))
+    for path in args.into:
+        write_between_markers(path, MARKER, page)
+    print(page)
 
 
 if __name__ == "__main__":

@@ -104,3 +104,29 @@ def test_published_table_is_the_committed_results(page: str, monkeypatch: pytest
     if page == "docs/results.md":
         # REINFORCE's table with the figure, then PPO's
         assert [(command.group(3), command.group(4) is not None) for command in commands] == [(None, True), ("ppo", False)]
+
+
+#: The command that writes the training-time table (issue 64) into the README and the results page
+WALLCLOCK_COMMAND = r"`python benchmarks/wallclock_table.py((?: --current \S+)*)((?: --into \S+)+)`"
+
+
+@pytest.mark.parametrize("page", ["README.md", "docs/results.md"])
+def test_wallclock_table_is_the_committed_results(page: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    # The side-by-side training-time table is what benchmarks/wallclock_table.py makes of the committed runs, and the
+    # command each page names writes both pages
+    import sys
+
+    text = (REPO / page).read_text()
+    command = re.search(WALLCLOCK_COMMAND, " ".join(text.split()))
+    assert command is not None, f"{page} names the command that writes its training-time table"
+    assert sorted(command.group(2).split()[1::2]) == ["README.md", "docs/results.md"]
+    monkeypatch.chdir(REPO)
+    monkeypatch.syspath_prepend(str(REPO / "benchmarks"))
+    sys.modules.pop("wallclock_table", None)
+    import wallclock_table
+
+    root = wallclock_table.RESULTS
+    candidates = [wallclock_table.runs(Path(folder)) for folder in command.group(1).split()[1::2]]
+    block = re.search(r"<!-- wallclock -->\n(.*?)<!-- /wallclock -->", text, re.DOTALL)
+    assert block is not None
+    assert block.group(1) == wallclock_table.page_table(wallclock_table.current_runs(wallclock_table.runs(root), candidates))

@@ -555,6 +555,29 @@ def test_wallclock_table_reads_runs_stopped_at_the_threshold(tmp_path: Path) -> 
     assert table[2].startswith("| CartPole-v1 (40) | PPO | 1 (0-0) |")
     assert table[3].startswith("| CartPole-v1 (40) | REINFORCE |")
     assert table[3].endswith("x |") or table[3].endswith("- |")  # REINFORCE's median against PPO's, per repeat
+    # --current: a second root's runs of an env replace --root's on the page (its PPO beside it); --into writes it
+    current = tmp_path / "candidates" / "faster"
+    compare([*args, "--first-seed", "1", "--out", str(current / "repeat1" / "CartPole-v1")])
+    page = tmp_path / "page.md"
+    page.write_text("before\n<!-- wallclock -->\nold\n<!-- /wallclock -->\nafter\n")
+    wallclock = load("wallclock_table")
+    wallclock.main(["--root", str(tmp_path), "--current", str(current), "--into", str(page)])
+    written = page.read_text().splitlines()
+    assert written[0] == "before" and written[-1] == "after" and "old" not in written
+    row = next(line for line in written if line.startswith("| CartPole-v1 (40) |"))
+    cells = [cell.strip() for cell in row.strip("|").split("|")]
+    assert cells[3] == "-" and cells[5] == "1 of 2 repeats run"  # the candidate's one repeat, without A2C
+    assert cells[-1] == f"`{current.as_posix()}`"
+    # without --current the page's row is --root's, PPO beside REINFORCE, both repeats
+    wallclock.main(["--root", str(tmp_path), "--into", str(page)])
+    row = next(line for line in page.read_text().splitlines() if line.startswith("| CartPole-v1 (40) |"))
+    cells = [cell.strip() for cell in row.strip("|").split("|")]
+    assert cells[2] != "-" and cells[5] in ("yes", "**no**") and len(cells[4].split(", ")) == 2
+    # a page without the markers is refused before anything is written
+    bare = tmp_path / "bare.md"
+    bare.write_text("no markers\n")
+    with pytest.raises(SystemExit, match="no <!-- wallclock -->"):
+        wallclock.main(["--root", str(tmp_path), "--into", str(bare)])
 
 
 def test_defaults_table_reads_the_suite_off_the_study_scripts() -> None:

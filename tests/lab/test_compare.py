@@ -824,7 +824,7 @@ def test_overview_table_hand_computed(tmp_path: Path, capsys: pytest.CaptureFixt
     # seed 10 scores 9 before training (eval_index 0): not counted; it reaches 5 at 2,000 steps, seed 11 at 3,000
     assert reinforce["seeds reaching"] == "2/3 (seeds 10-12)"
     assert reinforce["median steps to reach"] == "3,000"  # median of 2,000, 3,000 and never
-    assert reinforce["median seconds to reach"] == "6.0"
+    assert "median seconds to reach" not in table  # seconds of runs made apart compare nothing
     # IQM of 3 values (trim_mean 0.25 drops none): mean(6, 7, 1), and of the sampled-action finals mean(5, 6, 0)
     assert reinforce["final IQM"] == "4.7" and reinforce["final IQM, sampled actions"] == "3.7"
     assert reinforce["budget"] == "3k" and reinforce["env (threshold)"] == "CartPole-v1 (5)"

@@ -170,7 +170,7 @@ def overview_table(folders: Sequence[Path]) -> pd.DataFrame:
     The one-screen summary over comparisons, one row per environment and algorithm (from the first folder holding it).
 
     :param folders: Comparison output folders (``sb3-reinforce compare --out``), in the order of the rows
-    :return: A table of strings (budget, seeds and median steps/seconds to the threshold, final IQMs, folder)
+    :return: A table of strings (budget, seeds and median steps to the threshold, final IQMs, folder)
     """
     rows = []
     for folder, env_id, threshold, algo, algo_df in _first_of_each(folders):
@@ -181,12 +181,13 @@ def overview_table(folders: Sequence[Path]) -> pd.DataFrame:
             "budget": _steps_short(float(np.median([df["steps"].iloc[-1] for df in per_seed]))),
         }
         if threshold is not None:
-            steps_to, seconds_to = _reach(trained, threshold)
-            median_steps, median_seconds = (quantile_with_inf(v, 0.5) for v in (steps_to, seconds_to))
+            # No seconds: the folders' runs ran at different times on differently loaded machines, so their
+            # seconds answer no question across algorithms; benchmarks/wallclock_table.py measures time side by side.
+            steps_to, _ = _reach(trained, threshold)
+            median_steps = quantile_with_inf(steps_to, 0.5)
             seeds = _seed_range([int(s) for s in algo_df["seed"].unique()])
             row["seeds reaching"] = f"{int(np.isfinite(steps_to).sum())}/{len(per_seed)} (seeds {seeds})"
             row["median steps to reach"] = "not reached" if np.isinf(median_steps) else f"{median_steps:,.0f}"
-            row["median seconds to reach"] = "not reached" if np.isinf(median_seconds) else f"{median_seconds:,.1f}"
         row["final IQM"] = f"{iqm(_finals(per_seed, 'mean_return')):.1f}"
         if "mean_return_stochastic" in algo_df:
             row["final IQM, sampled actions"] = f"{iqm(_finals(per_seed, 'mean_return_stochastic')):.1f}"
