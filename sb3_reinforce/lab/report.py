@@ -25,6 +25,7 @@ from sb3_reinforce.lab.seed.summary import render_seed
 __all__ = [
     "build_parser",
     "main",
+    "page_table",
     "published_marker",
     "render",
     "system_differences",
@@ -50,6 +51,27 @@ def render(out_dir: Path) -> str:
     if any(out_dir.glob("episodes_seed*.csv")):
         return render_seed(out_dir)
     raise ValueError(f"{out_dir} is neither a comparison (per_run/) nor a seed reproduction (episodes_seed*.csv)")
+
+
+#: A page's copy of a comparison's table leaves out the columns whose header starts so: the seconds of runs made at
+#: different times on differently loaded machines answer no question across algorithms (the folder's own summary.md
+#: keeps them; benchmarks/wallclock_table.py measures training time side by side).
+PAGE_OMITS = "seconds to "
+
+
+def page_table(out_dir: Path, rendered: str) -> str:
+    """
+    A result folder's table as ``--readme`` writes it into a page: a comparison's without its seconds to the threshold.
+
+    :param out_dir: The result folder, after :func:`render`
+    :param rendered: What :func:`render` returned for it
+    :return: The markdown table
+    """
+    if not ComparisonFolder.holds_comparison(out_dir):
+        return rendered  # a seed reproduction's table counts episodes, not seconds
+    folder = ComparisonFolder(out_dir)
+    table = pd.read_csv(folder.output(folder.SUMMARY_CSV), dtype=str, keep_default_na=False)  # the cells as written
+    return to_markdown(table.drop(columns=[column for column in table.columns if column.startswith(PAGE_OMITS)]))
 
 
 def system_differences(folders: list[Path]) -> str | None:
@@ -164,7 +186,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=Path,
         default=None,
         help="also write each table into this markdown file, between the markers <!-- results:DIR --> and "
-        "<!-- /results:DIR --> (default: no file is written)",
+        "<!-- /results:DIR -->, a comparison's without its seconds to the threshold (runs made apart compare no "
+        "time; summary.md keeps them) (default: no file is written)",
     )
     return parser
 
@@ -218,6 +241,6 @@ def main(argv: list[str] | None = None) -> None:
     if args.published is not None:
         _published(parser, args, comparisons)
     if args.readme is not None:
-        updated = update_readme(args.readme, tables)
+        updated = update_readme(args.readme, {name: page_table(Path(name), table) for name, table in tables.items()})
         missing = sorted(set(tables) - set(updated))
         print(f"{args.readme}: updated {updated}" + (f"; no markers for {missing}" if missing else ""))

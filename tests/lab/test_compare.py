@@ -802,6 +802,25 @@ def _fake_comparison(folder: Path, env_id: str, threshold: float, curves: dict[t
     write_outputs(folder, env_id, threshold)
 
 
+def test_report_into_a_page_leaves_out_the_seconds(tmp_path: Path) -> None:
+    # A page's copy of a comparison's table (report --readme) has no seconds to the threshold: runs made apart compare
+    # no time. The folder's summary.md keeps them, and every other cell is its own, as written.
+    from sb3_reinforce.lab.report import main as report
+
+    folder = tmp_path / "cmp"
+    _fake_comparison(folder, "CartPole-v1", 5.0, {("reinforce", 10): [0, 5, 6, 7], ("ppo", 0): [0, 1, 5, 5]})
+    name = folder.as_posix()
+    page = tmp_path / "page.md"
+    page.write_text(f"a\n<!-- results:{name} -->\nold\n<!-- /results:{name} -->\nb\n")
+    report([name, "--readme", str(page)])
+    written = [[cell.strip() for cell in line.split("|")[1:-1]] for line in page.read_text().splitlines()[2:-2]]
+    summary = [[cell.strip() for cell in line.split("|")[1:-1]] for line in (folder / "summary.md").read_text().splitlines()]
+    dropped = summary[0].index("seconds to 5, median [IQR]")
+    assert summary[2][dropped] == "2.0 [2.0, 2.0] (1/1 reached)"  # REINFORCE reaches 5 at its first trained evaluation
+    assert not any(cell.startswith("seconds") for cell in written[0])
+    assert written == [row[:dropped] + row[dropped + 1 :] for row in summary]
+
+
 def test_overview_table_hand_computed(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     # REINFORCE on seeds 10-12 (reaching 5 at 2,000 and 3,000 steps, one never), PPO on seed 0 in the first
     # folder; the second folder's PPO row is shadowed by the first's, its A2C row is new.
