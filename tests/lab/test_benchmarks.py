@@ -555,9 +555,10 @@ def test_wallclock_table_reads_runs_stopped_at_the_threshold(tmp_path: Path) -> 
     assert table[2].startswith("| CartPole-v1 (40) | PPO | 1 (0-0) |")
     assert table[3].startswith("| CartPole-v1 (40) | REINFORCE |")
     assert table[3].endswith("x |") or table[3].endswith("- |")  # REINFORCE's median against PPO's, per repeat
-    # --current: a second root's runs of an env replace --root's on the page (its PPO beside it); --into writes it
+    # --current: a second root's runs of an env replace --root's on the page (its PPO beside it); --into writes it.
+    # The second root holds one repeat, a copy of the first's (the page names the root its REINFORCE runs come from).
     current = tmp_path / "candidates" / "faster"
-    compare([*args, "--first-seed", "1", "--out", str(current / "repeat1" / "CartPole-v1")])
+    shutil.copytree(tmp_path / "repeat1", current / "repeat1")
     page = tmp_path / "page.md"
     page.write_text("before\n<!-- wallclock -->\nold\n<!-- /wallclock -->\nafter\n")
     wallclock = load("wallclock_table")

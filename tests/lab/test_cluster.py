@@ -193,7 +193,9 @@ def test_workers_started_as_dask_documents_lend_their_threads(tmp_path: Path) ->
             workers = client.scheduler_info(n_workers=-1)["workers"].values()
             lent = {info["name"]: (info["resources"].get("CPU"), info["nthreads"]) for info in workers}
         # Ctrl-C on a worker that has trained (SIGINT to its process group, as a terminal sends it): it stops
-        # cleanly, before its nanny's 8 s limit ("Worker process still alive after 8.0 seconds, killing")
+        # cleanly, before its nanny's 8 s limit ("Worker process still alive after 8.0 seconds, killing"). The nanny's
+        # log decides, not a clock of ours: ours also counts the nanny's own shutdown (8.08 s once on a loaded
+        # machine, the worker having stopped by itself).
         stopped_at = time.monotonic()
         os.killpg(cluster.workers["w1"].pid, signal.SIGINT)
         cluster.workers["w1"].wait(timeout=60)
@@ -201,8 +203,8 @@ def test_workers_started_as_dask_documents_lend_their_threads(tmp_path: Path) ->
         log = (tmp_path / "w1.log").read_text()
     assert lent == {"w1": (os.cpu_count(), os.cpu_count()), "w2": (os.cpu_count(), os.cpu_count())}, lent
     _check_every_row(out, ["reinforce_seed0", "reinforce_seed1"])
-    assert cluster.workers["w1"].returncode == 0 and seconds < 8, (seconds, log)
-    assert "killing" not in log and "Traceback" not in log, log
+    assert cluster.workers["w1"].returncode == 0, (seconds, log)
+    assert "killing" not in log and "Traceback" not in log, (seconds, log)
 
 
 def _worker_process(nanny: subprocess.Popen) -> psutil.Process:
