@@ -95,18 +95,17 @@ def _seconds(value: float) -> str:
     return "not reached" if math.isinf(value) else f"{value:,.1f}"
 
 
-def _ratios(per_algo: dict[str, dict[str, float]], algo: str) -> list[float]:
-    """``algo``'s median over PPO's, per repeat both ran (inf where ``algo`` did not reach, nan where PPO did not)."""
+def _pairs(per_algo: dict[str, dict[str, float]], algo: str) -> list[tuple[float, float]]:
+    """``algo``'s median and PPO's, per repeat both ran (inf: not reached)."""
     ppo = per_algo.get("ppo", {})
-    ratios = []
-    for repeat, seconds in sorted(per_algo.get(algo, {}).items()):
-        if repeat in ppo:
-            ratios.append(math.nan if math.isinf(ppo[repeat]) else seconds / ppo[repeat])
-    return ratios
+    return [(seconds, ppo[repeat]) for repeat, seconds in sorted(per_algo.get(algo, {}).items()) if repeat in ppo]
 
 
-def _ratio(value: float) -> str:
-    return "-" if math.isnan(value) else ("not reached" if math.isinf(value) else f"{value:.2f}x")
+def _ratio(seconds: float, ppo: float) -> str:
+    """One repeat's median over PPO's, or which of the two never reached the threshold."""
+    if math.isinf(seconds):
+        return "neither reached" if math.isinf(ppo) else "not reached"
+    return "PPO not reached" if math.isinf(ppo) else f"{seconds / ppo:.2f}x"
 
 
 def table(per_run: pd.DataFrame) -> str:
@@ -120,7 +119,7 @@ def table(per_run: pd.DataFrame) -> str:
             shown = ", ".join(_seconds(v) for _, v in sorted(per_algo[algo].items()))
             seeds = f"{algo_runs['seed'].nunique()} ({algo_runs['seed'].min()}-{algo_runs['seed'].max()})"
             load = f"{algo_runs['load_1min_start'].min():.2f}-{algo_runs['load_1min_start'].max():.2f}"
-            ratio = "" if algo == "ppo" else ", ".join(_ratio(r) for r in _ratios(per_algo, algo))
+            ratio = "" if algo == "ppo" else ", ".join(_ratio(*pair) for pair in _pairs(per_algo, algo))
             lines.append(f"| {env_id} ({threshold:g}) | {algo.upper()} | {seeds} | {shown} | {load} | {ratio} |")
     return "\n".join(lines) + "\n"
 
@@ -165,16 +164,16 @@ def page_table(per_run: pd.DataFrame) -> str:
     for env_id, threshold in sorted(envs, key=lambda env: (_is_mujoco(env[0]), env[0])):
         env_runs = per_run[per_run["env_id"] == env_id]
         per_algo = medians(env_runs)
-        ratios = _ratios(per_algo, "reinforce")
-        if len(ratios) < REPEATS:
-            verdict = f"{len(ratios)} of {REPEATS} repeats run"
-        else:
-            verdict = "yes" if all(r <= 1 for r in ratios) else "**no**"  # nan (PPO not reached) compares False
+        pairs = _pairs(per_algo, "reinforce")
+        if len(pairs) < REPEATS:
+            verdict = f"{len(pairs)} of {REPEATS} repeats run"
+        else:  # the rule: at or below PPO's median in every repeat (not reached: infinitely late, so inf <= inf)
+            verdict = "yes" if all(seconds <= ppo for seconds, ppo in pairs) else "**no**"
         cells = [_algo_cell(env_runs, per_algo, algo) for algo in ("reinforce", "ppo", "a2c")]
         load = f"{env_runs['load_1min_start'].min():.2f}-{env_runs['load_1min_start'].max():.2f}"
         cpus = ", ".join(sorted(set(env_runs["cpu"])))
         folder = env_runs.loc[env_runs["algo"] == "reinforce", "folder"].iloc[0]
-        ratio = ", ".join(_ratio(r) for r in ratios)
+        ratio = ", ".join(_ratio(*pair) for pair in pairs)
         lines.append(
             f"| {env_id} ({threshold:g}) | {' | '.join(cells)} | {ratio} | {verdict} | {load} | {cpus} | `{folder}` |"
         )

@@ -581,6 +581,34 @@ def test_wallclock_table_reads_runs_stopped_at_the_threshold(tmp_path: Path) -> 
         wallclock.main(["--root", str(tmp_path), "--into", str(bare)])
 
 
+@pytest.mark.parametrize(
+    ("reinforce", "ppo", "shown", "verdict"),
+    [
+        ((3.0, 2.0, 9.0), (4.0, 5.0, 6.0), "0.60x", "yes"),  # medians 3 and 5
+        ((3.0, 7.0, 9.0), (4.0, 5.0, 6.0), "1.40x", "**no**"),
+        ((3.0, math.inf, 9.0), (math.inf, math.inf, 6.0), "PPO not reached", "yes"),  # 9 against never
+        ((math.inf, math.inf, 1.0), (4.0, 5.0, 6.0), "not reached", "**no**"),
+        ((math.inf, math.inf, 1.0), (math.inf, math.inf, 6.0), "neither reached", "yes"),  # never is not later
+    ],
+)
+def test_wallclock_verdict_counts_not_reached_as_infinitely_late(
+    reinforce: tuple[float, ...], ppo: tuple[float, ...], shown: str, verdict: str
+) -> None:
+    # The rule: REINFORCE's median over seeds at or below PPO's in both repeats, a seed that never reaches counting as
+    # infinitely late (the same numbers in both repeats here)
+    wallclock = load("wallclock_table")
+    rows = [
+        dict(folder="f", repeat=repeat, env_id="CartPole-v1", threshold=475.0, algo=algo, seed=seed,
+             seconds_to_threshold=seconds, load_1min_start=1.0, cpu="AMD EPYC")
+        for repeat in ("repeat1", "repeat2")
+        for algo, times in (("reinforce", reinforce), ("ppo", ppo))
+        for seed, seconds in enumerate(times)
+    ]  # fmt: skip
+    row = wallclock.page_table(pd.DataFrame(rows)).splitlines()[2]
+    cells = [cell.strip() for cell in row.strip("|").split("|")]
+    assert cells[4] == f"{shown}, {shown}" and cells[5] == verdict and cells[3] == "-"
+
+
 def test_defaults_table_reads_the_suite_off_the_study_scripts() -> None:
     # Issue 62: the tasks and seeds the rule reads are queue.sh's, and run.sh's classic tasks are the same
     defaults = load("defaults_table")
