@@ -91,8 +91,9 @@ def medians(env_runs: pd.DataFrame) -> dict[str, dict[str, float]]:
     }
 
 
-def _seconds(value: float) -> str:
-    return "not reached" if math.isinf(value) else f"{value:,.1f}"
+def _seconds(per_repeat: dict[str, float]) -> str:
+    """One algorithm's medians, repeat by repeat (inf: not reached)."""
+    return ", ".join("not reached" if math.isinf(value) else f"{value:,.1f}" for _, value in sorted(per_repeat.items()))
 
 
 def _pairs(per_algo: dict[str, dict[str, float]], algo: str) -> list[tuple[float, float]]:
@@ -116,7 +117,7 @@ def table(per_run: pd.DataFrame) -> str:
         per_algo = medians(env_runs)
         for algo in sorted(per_algo, key=lambda name: (name != "ppo", name)):  # PPO first: the ratios are to it
             algo_runs = env_runs[env_runs["algo"] == algo]
-            shown = ", ".join(_seconds(v) for _, v in sorted(per_algo[algo].items()))
+            shown = _seconds(per_algo[algo])
             seeds = f"{algo_runs['seed'].nunique()} ({algo_runs['seed'].min()}-{algo_runs['seed'].max()})"
             load = f"{algo_runs['load_1min_start'].min():.2f}-{algo_runs['load_1min_start'].max():.2f}"
             ratio = "" if algo == "ppo" else ", ".join(_ratio(*pair) for pair in _pairs(per_algo, algo))
@@ -144,7 +145,7 @@ def _is_mujoco(env_id: str) -> bool:
 def _algo_cell(env_runs: pd.DataFrame, per_algo: dict[str, dict[str, float]], algo: str) -> str:
     if algo not in per_algo:
         return "-"
-    cell = ", ".join(_seconds(v) for _, v in sorted(per_algo[algo].items()))
+    cell = _seconds(per_algo[algo])
     algo_runs = env_runs[env_runs["algo"] == algo]
     reached = int(algo_runs["seconds_to_threshold"].map(math.isfinite).sum())
     return cell if reached == len(algo_runs) else f"{cell} ({reached} of {len(algo_runs)} runs reach)"
