@@ -1,35 +1,54 @@
 """
-The CarRacing-v3 tuning study's rule (``benchmarks/results/carracing_tuning/README.md``, committed before its runs),
-applied to the evaluations so far: each seed's score, each config's score per stage, and what the rule says next.
+The rule of the CarRacing-v3 tuning studies (``benchmarks/results/carracing_tuning/README.md`` and
+``carracing_study2/README.md``, each committed before its runs), applied to the evaluations so far: each seed's
+score, each config's score per stage, and what the rule says next.
 
     python benchmarks/carracing_tuning.py
+    python benchmarks/carracing_tuning.py --study carracing_study2
 
 A seed's score is the mean of its deterministic evaluations at 900k, 950k and 1M steps; a config's score is the
-lowest of its seeds' scores, its mean over seeds breaking ties closer than 10 points. Stage 1 ranks ``b``, ``c``
-and ``d`` on seeds 100-101 beside ``a_entry``'s pilot runs; the best two run on seeds 102-103 (stage 2); the pick
-is the better of those two over the four seeds. Nothing is decided while a run of the stage is short of 1M steps.
+lowest of its seeds' scores, its mean over seeds breaking ties closer than 10 points. Stage 1 ranks the study's
+candidates on seeds 100-101 beside ``a_entry``'s runs (the control: the pilot's, and the first study's on 102-103);
+the best two run on seeds 102-103 (stage 2); the pick is the better of those two over the four seeds. Nothing is
+decided while a run of the stage is short of 1M steps.
 """
 
 import argparse
 import functools
 import math
 from pathlib import Path
+from typing import NamedTuple
 
 import pandas as pd
 from pilot_scores import evaluations_at
 
 RESULTS = Path(__file__).parent / "results"
-STUDY = RESULTS / "carracing_tuning"
 SCORED_STEPS = (900_000, 950_000, 1_000_000)
 STAGE_1_SEEDS = (100, 101)
 STAGE_2_SEEDS = (102, 103)
 TIE = 10.0
-# Each config's comparison folders; the control's seeds 100-101 are the pilot's runs of the same config
-CONFIG_FOLDERS = {
-    "a_entry": [RESULTS / "carracing_pilot" / "b_value20", STUDY / "a_entry"],
-    "b_gsde": [STUDY / "b_gsde"],
-    "c_gsde_squash": [STUDY / "c_gsde_squash"],
-    "d_lin_lr": [STUDY / "d_lin_lr"],
+#: The control, the zoo entry: its seeds 100-101 are the pilot's runs of the same config, 102-103 the first study's
+CONTROL = [RESULTS / "carracing_pilot" / "b_value20", RESULTS / "carracing_tuning" / "a_entry"]
+
+
+class Study(NamedTuple):
+    """A study's configs (each with its comparison folders, the control among them) and where its pick goes next."""
+
+    config_folders: dict[str, list[Path]]
+    #: The fresh seeds the pick is verified on
+    verification: str
+    #: Whether the pick is verified when it is the control (the first study's rule) or nothing more runs (study 2's)
+    control_verified: bool
+
+
+def _study(name: str, candidates: tuple[str, ...], verification: str, control_verified: bool) -> Study:
+    folders = {"a_entry": CONTROL, **{candidate: [RESULTS / name / candidate] for candidate in candidates}}
+    return Study(folders, verification, control_verified)
+
+
+STUDIES = {
+    "carracing_tuning": _study("carracing_tuning", ("b_gsde", "c_gsde_squash", "d_lin_lr"), "5000-5002", True),
+    "carracing_study2": _study("carracing_study2", ("b_std005", "c_clip05", "d_e8"), "6010-6012 at 4M steps", False),
 }
 
 
@@ -95,9 +114,9 @@ def _waiting(stage: pd.DataFrame) -> str:
     return "; ".join(f"{row['config']} seeds {row['missing']}" for _, row in stage.iterrows() if row["missing"])
 
 
-def verdict(seeds: pd.DataFrame) -> list[str]:
-    """What the rule says now, line by line: each stage's ranking, or what it waits for."""
-    stage_1 = config_scores(seeds, list(CONFIG_FOLDERS), STAGE_1_SEEDS)
+def verdict(seeds: pd.DataFrame, study: Study) -> list[str]:
+    """What ``study``'s rule says now, line by line: each stage's ranking, or what it waits for."""
+    stage_1 = config_scores(seeds, list(study.config_folders), STAGE_1_SEEDS)
     if waiting := _waiting(stage_1):
         return [f"Stage 1 (seeds 100-101): undecided, waiting for {waiting}"]
     ranking = better_first(stage_1)
@@ -108,18 +127,24 @@ def verdict(seeds: pd.DataFrame) -> list[str]:
     pick = better_first(stage_2)[0]
     best = stage_2.set_index("config").loc[pick]
     lines.append(f"Stage 2 (seeds 100-103): the pick is {pick} (lowest {best['lowest']:.1f}, mean {best['mean']:.1f})")
-    if stage_2["lowest"].max() < 500:
-        lines.append("No config's score reaches 500; the pick is verified on seeds 5000-5002 all the same")
+    if pick == "a_entry" and not study.control_verified:
+        lines.append("The pick is the entry: nothing more runs (its own verification at 4M: verify_carracing_4m)")
+    elif stage_2["lowest"].max() < 500:
+        lines.append(f"No config's score reaches 500; the pick is verified on seeds {study.verification} all the same")
+    else:
+        lines.append(f"The pick is verified on seeds {study.verification}")
     return lines
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
-    parser.parse_args(argv)
-    seeds = seed_scores(CONFIG_FOLDERS)
+    parser.add_argument("--study", choices=sorted(STUDIES), default="carracing_tuning")
+    args = parser.parse_args(argv)
+    study = STUDIES[args.study]
+    seeds = seed_scores(study.config_folders)
     with pd.option_context("display.width", 200, "display.max_rows", None, "display.float_format", "{:.1f}".format):
         print(seeds.to_string(index=False))
-    print("\n".join(verdict(seeds)))
+    print("\n".join(verdict(seeds, study)))
 
 
 if __name__ == "__main__":

@@ -216,7 +216,7 @@ def test_pilot_scores_of_a_study_trial_folder() -> None:
 def test_carracing_tuning_scores_the_control_from_the_pilot() -> None:
     # The tuning README's figures for a_entry (488.2 and 635.8), recomputed from the pilot's committed runs
     tuning = load("carracing_tuning")
-    seeds = tuning.seed_scores({"a_entry": tuning.CONFIG_FOLDERS["a_entry"]})
+    seeds = tuning.seed_scores({"a_entry": tuning.CONTROL})
     pilot = seeds[seeds["seed"].isin([100, 101])]  # stage 2's seeds 102-103 run in the study's own folder
     assert list(pilot["seed"]) == [100, 101]
     assert [round(score, 1) for score in pilot["score"]] == [488.2, 635.8]
@@ -247,6 +247,7 @@ def test_carracing_tuning_rule(tmp_path: Path) -> None:
         pd.DataFrame(frame).to_csv(folder / f"reinforce_seed{seed}.csv", index=False)
 
     folders = {config: [tmp_path / config] for config in ("a_entry", "b_gsde", "c_gsde_squash", "d_lin_lr")}
+    study = tuning.Study(folders, "5000-5002", control_verified=True)
     run("a_entry", 100, [500.0] * 3)
     run("a_entry", 101, [700.0] * 3)  # lowest 500, mean 600
     run("b_gsde", 100, [505.0] * 3)
@@ -255,13 +256,14 @@ def test_carracing_tuning_rule(tmp_path: Path) -> None:
     run("c_gsde_squash", 101, [900.0] * 3)  # lowest 450: last, whatever its mean
     run("d_lin_lr", 100, [600.0, 600.0])  # short of 1M
     run("d_lin_lr", 101, [800.0] * 3)
-    tuning.CONFIG_FOLDERS = folders
     seeds = tuning.seed_scores(folders)
     assert seeds.set_index(["config", "seed"])["score"].isna().sum() == 1
-    assert tuning.verdict(seeds) == ["Stage 1 (seeds 100-101): undecided, waiting for d_lin_lr seeds 100 (950,000 steps)"]
+    assert tuning.verdict(seeds, study) == [
+        "Stage 1 (seeds 100-101): undecided, waiting for d_lin_lr seeds 100 (950,000 steps)"
+    ]
     run("d_lin_lr", 100, [520.0] * 3)  # lowest 520: first
     seeds = tuning.seed_scores(folders)
-    lines = tuning.verdict(seeds)
+    lines = tuning.verdict(seeds, study)
     ranking = "d_lin_lr > a_entry > b_gsde > c_gsde_squash"
     assert lines[0] == f"Stage 1 (seeds 100-101): {ranking}; stage 2 runs d_lin_lr and a_entry"
     waiting = "d_lin_lr seeds 102 (not started), 103 (not started); a_entry seeds 102 (not started), 103 (not started)"
@@ -269,10 +271,18 @@ def test_carracing_tuning_rule(tmp_path: Path) -> None:
     for config, score in (("d_lin_lr", 470.0), ("a_entry", 490.0)):
         run(config, 102, [score] * 3)
         run(config, 103, [900.0] * 3)
-    lines = tuning.verdict(tuning.seed_scores(folders))
+    lines = tuning.verdict(tuning.seed_scores(folders), study)
     assert lines[1:] == [
         "Stage 2 (seeds 100-103): the pick is a_entry (lowest 490.0, mean 647.5)",
         "No config's score reaches 500; the pick is verified on seeds 5000-5002 all the same",
+    ]
+    # study 2's rule: the control picked means nothing more runs; another pick goes to its fresh seeds
+    second = tuning.Study(folders, "6010-6012 at 4M steps", control_verified=False)
+    assert tuning.verdict(tuning.seed_scores(folders), second)[-1].startswith("The pick is the entry: nothing more runs")
+    run("a_entry", 102, [400.0] * 3)  # now d_lin_lr (lowest 470) is ahead of a_entry (400)
+    assert tuning.verdict(tuning.seed_scores(folders), second)[1:] == [
+        "Stage 2 (seeds 100-103): the pick is d_lin_lr (lowest 470.0, mean 672.5)",
+        "No config's score reaches 500; the pick is verified on seeds 6010-6012 at 4M steps all the same",
     ]
 
 
