@@ -10,7 +10,8 @@ deterministic evaluations at those steps (CarRacing's target reads 900k, 950k an
     python benchmarks/pilot_scores.py benchmarks/results/verify_acrobot --threshold -100
     python benchmarks/pilot_scores.py benchmarks/results/verify_carracing --threshold 500 --mean-at 900000 950000 1000000
 
-A folder without ``results.csv`` (a study trial's) is read from its ``per_run/*.csv``. ``LABEL=FOLDER`` pools
+A folder without ``results.csv`` (a study trial's) is read from its ``per_run/*.csv``. Files among the arguments (a
+study folder's README.md, run script and log, which ``STUDY/*`` names too) are skipped. ``LABEL=FOLDER`` pools
 folders under one label, so that one config's seeds from a study trial and from a later run are scored together:
 
     python benchmarks/pilot_scores.py t7=benchmarks/results/study_lunarlander_1m/trials/007 \
@@ -81,7 +82,7 @@ def run_scores(
     return pd.DataFrame(rows)
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument("folders", nargs="+", help="comparison folders (results.csv or per_run/*.csv), PATH or LABEL=PATH")
     parser.add_argument("--threshold", type=float, required=True, help="the env's solve threshold")
@@ -94,8 +95,9 @@ def main() -> None:
         metavar="STEPS",
         help="also the mean of the deterministic evaluations at these steps (e.g. 900000 950000 1000000)",
     )
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     labelled = [arg.split("=", 1) if "=" in arg else [None, arg] for arg in args.folders]
+    labelled = [(label, path) for label, path in labelled if not Path(path).is_file()]
     table = pd.concat(
         [run_scores(Path(path), args.threshold, args.from_steps, label, tuple(args.mean_at)) for label, path in labelled]
     )

@@ -194,6 +194,18 @@ def test_pilot_scores_of_committed_runs() -> None:
     assert math.isnan(by_seed.loc[101, "training s to it"])
 
 
+def test_pilot_scores_of_a_study_folder_skip_its_files(capsys: pytest.CaptureFixture[str]) -> None:
+    # `pilot_scores.py STUDY/* --threshold T`, as the studies' READMEs cite it: the README, run script and log that the
+    # glob names too are skipped, each candidate's folder scored (the LunarLander speed study's README's figures)
+    study = BENCHMARKS / "results" / "lunarlander_speed"
+    arguments = sorted(study.iterdir())
+    assert any(path.is_file() for path in arguments)
+    load("pilot_scores").main([*map(str, arguments), "--threshold", "200"])
+    summary = capsys.readouterr().out.split("first crossing:\n")[1]
+    means = {line.split()[0]: float(line.split()[2]) for line in summary.splitlines()[2:]}
+    assert means == {"e4": 250.3, "e8": 49.4, "e8_lr5e-3": 84.7, "entry": 179.7}
+
+
 def test_pilot_scores_mean_at_reads_the_periodic_evaluations() -> None:
     # CarRacing's target figures (verify_carracing's README: 732.0, 416.6, 443.2) are the evaluations at 900k, 950k
     # and 1M steps, not the final one after the last rollout (seed 4000: 816.7 at 1,000,792 steps)
