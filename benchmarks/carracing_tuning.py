@@ -10,7 +10,9 @@ A seed's score is the mean of its deterministic evaluations at 900k, 950k and 1M
 lowest of its seeds' scores, its mean over seeds breaking ties closer than 10 points. Stage 1 ranks the study's
 candidates on seeds 100-101 beside ``a_entry``'s runs (the control: the pilot's, and the first study's on 102-103);
 the best two run on seeds 102-103 (stage 2); the pick is the better of those two over the four seeds. Nothing is
-decided while a run of the stage is short of 1M steps.
+decided while a run of the stage is short of 1M steps, unless that run cannot change the stage's two best: a config's
+score can only fall as its seeds finish, so one whose seeds so far score 10 or more below two finished configs is
+out of the two best whatever its other seeds do (its missing runs are then named and not waited for).
 """
 
 import argparse
@@ -74,7 +76,8 @@ def seed_scores(config_folders: dict[str, list[Path]]) -> pd.DataFrame:
 def config_scores(seeds: pd.DataFrame, configs: list[str], stage_seeds: tuple[int, ...]) -> pd.DataFrame:
     """
     Each config's score over ``stage_seeds``: the lowest seed score and the mean, with ``missing`` naming the seeds
-    not yet at 1M steps (a config is scored only when none is missing).
+    not yet at 1M steps (a config is scored only when none is missing), and ``lowest_so_far``, the lowest score of its
+    seeds at 1M steps (NaN when none is): an upper bound on its ``lowest`` once all are.
     """
     rows = []
     for config in configs:
@@ -92,6 +95,7 @@ def config_scores(seeds: pd.DataFrame, configs: list[str], stage_seeds: tuple[in
                 "lowest": scores.min() if not missing else math.nan,
                 "mean": scores.mean() if not missing else math.nan,
                 "missing": ", ".join(missing),
+                "lowest_so_far": scores.min() if done else math.nan,
             }
         )
     return pd.DataFrame(rows)
@@ -109,6 +113,19 @@ def better_first(scored: pd.DataFrame) -> list[str]:
     return [row["config"] for row in sorted(rows, key=functools.cmp_to_key(compare))]
 
 
+def out_of_the_best(stage: pd.DataFrame, places: int) -> list[str]:
+    """
+    The unfinished configs that cannot be among the stage's ``places`` best: their lowest seed so far is at least
+    ``TIE`` below the lowest of ``places`` finished configs, and a lowest score can only fall as more seeds finish.
+    """
+    finished = stage.loc[stage["missing"] == "", "lowest"]
+    return [
+        row["config"]
+        for _, row in stage.iterrows()
+        if row["missing"] and (finished - row["lowest_so_far"] >= TIE).sum() >= places  # NaN so far: never out
+    ]
+
+
 def _waiting(stage: pd.DataFrame) -> str:
     """The runs a stage still waits for, by config ("" when none)."""
     return "; ".join(f"{row['config']} seeds {row['missing']}" for _, row in stage.iterrows() if row["missing"])
@@ -117,10 +134,16 @@ def _waiting(stage: pd.DataFrame) -> str:
 def verdict(seeds: pd.DataFrame, study: Study) -> list[str]:
     """What ``study``'s rule says now, line by line: each stage's ranking, or what it waits for."""
     stage_1 = config_scores(seeds, list(study.config_folders), STAGE_1_SEEDS)
-    if waiting := _waiting(stage_1):
+    out = out_of_the_best(stage_1, places=2)
+    in_the_running = stage_1[~stage_1["config"].isin(out)]
+    if waiting := _waiting(in_the_running):
         return [f"Stage 1 (seeds 100-101): undecided, waiting for {waiting}"]
-    ranking = better_first(stage_1)
-    lines = [f"Stage 1 (seeds 100-101): {' > '.join(ranking)}; stage 2 runs {ranking[0]} and {ranking[1]}"]
+    ranking = better_first(in_the_running)
+    shown = " > ".join(ranking) + "".join(f" > {config} (out)" for config in out)
+    lines = [f"Stage 1 (seeds 100-101): {shown}; stage 2 runs {ranking[0]} and {ranking[1]}"]
+    if out:
+        skipped = _waiting(stage_1[stage_1["config"].isin(out)])
+        lines.append(f"Not needed (10 or more below two finished configs already, and a score can only fall): {skipped}")
     stage_2 = config_scores(seeds, ranking[:2], STAGE_1_SEEDS + STAGE_2_SEEDS)
     if waiting := _waiting(stage_2):
         return [*lines, f"Stage 2 (seeds 100-103): undecided, waiting for {waiting}"]

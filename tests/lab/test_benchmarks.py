@@ -246,6 +246,43 @@ def test_carracing_initial_actions(tmp_path: Path) -> None:
         assert float(rows["b_gsde", action]["deterministic"]) < 0.1
 
 
+def test_carracing_tuning_rule_skips_runs_that_cannot_change_the_two_best(tmp_path: Path) -> None:
+    # A config's score is its lowest seed's, so one whose finished seed already scores 10 or more below two finished
+    # configs is out of stage 1's two best whatever its other seed does (study 2's b_std005: 82.8 on seed 100)
+    tuning = load("carracing_tuning")
+    configs = ("a_entry", "b_std005", "c_clip05", "d_e8")
+    folders = {config: [tmp_path / config] for config in configs}
+    study = tuning.Study(folders, "6010-6012 at 4M steps", control_verified=False)
+
+    def run(config: str, seed: int, score: float) -> None:
+        folder = tmp_path / config / "per_run"
+        folder.mkdir(parents=True, exist_ok=True)
+        frame = {"seed": seed, "steps": [0, 900_000, 950_000, 1_000_000], "mean_return": [-90.0, score, score, score]}
+        pd.DataFrame(frame).to_csv(folder / f"reinforce_seed{seed}.csv", index=False)
+
+    run("a_entry", 100, 488.2)
+    run("a_entry", 101, 635.8)
+    run("b_std005", 100, 82.8)
+    run("c_clip05", 100, 90.0)  # within 10 of b's 82.8: b could still pass c on the mean
+    run("c_clip05", 101, 400.0)
+    run("d_e8", 100, 92.0)  # so could it d: only a_entry is 10 or more ahead, and b's seed 101 is awaited
+    run("d_e8", 101, 700.0)
+    waiting = "Stage 1 (seeds 100-101): undecided, waiting for b_std005 seeds 101 (not started)"
+    assert tuning.verdict(tuning.seed_scores(folders), study) == [waiting]
+    run("d_e8", 100, 92.8)  # 10 above b's lowest so far: a_entry and d_e8 both rank above b whatever its seed 101 does
+    lines = tuning.verdict(tuning.seed_scores(folders), study)
+    assert lines[:2] == [
+        "Stage 1 (seeds 100-101): a_entry > d_e8 > c_clip05 > b_std005 (out); stage 2 runs a_entry and d_e8",
+        "Not needed (10 or more below two finished configs already, and a score can only fall): b_std005 seeds 101 "
+        "(not started)",
+    ]
+    # nothing is out while a config it would trail is unfinished itself
+    (tmp_path / "d_e8" / "per_run" / "reinforce_seed101.csv").unlink()
+    assert tuning.verdict(tuning.seed_scores(folders), study) == [
+        "Stage 1 (seeds 100-101): undecided, waiting for b_std005 seeds 101 (not started); d_e8 seeds 101 (not started)"
+    ]
+
+
 def test_carracing_tuning_rule(tmp_path: Path) -> None:
     # The rule on made-up evaluations: lowest seed first, mean when the lowest are within 10, nothing while a run is short
     tuning = load("carracing_tuning")
