@@ -143,7 +143,7 @@ def verdict(seeds: pd.DataFrame, study: Study) -> list[str]:
     lines = [f"Stage 1 (seeds 100-101): {shown}; stage 2 runs {ranking[0]} and {ranking[1]}"]
     if out:
         skipped = _waiting(stage_1[stage_1["config"].isin(out)])
-        lines.append(f"Not needed (10 or more below two finished configs already, and a score can only fall): {skipped}")
+        lines.append(f"Not needed ({TIE:g} or more below two finished configs already, and a score can only fall): {skipped}")
     stage_2 = config_scores(seeds, ranking[:2], STAGE_1_SEEDS + STAGE_2_SEEDS)
     if waiting := _waiting(stage_2):
         return [*lines, f"Stage 2 (seeds 100-103): undecided, waiting for {waiting}"]
