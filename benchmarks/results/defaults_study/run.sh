@@ -4,7 +4,8 @@
 # Each candidate is a zoo file with only a `default` entry (benchmarks/configs/defaults_study/CANDIDATE.yml): the
 # algorithm as ALGO("MlpPolicy", env) builds it, one env, no wrappers. Seeds 0-2 (FIRST_SEED, SEEDS to choose), 10
 # deterministic and 10 sampled-action episodes every 5% of the budget; one run at a time unless WORKERS=2.
-# Runs go to benchmarks/results/defaults_study/CANDIDATE/ENV/. Run from the repository root, venv activated.
+# Runs go to benchmarks/results/defaults_study/CANDIDATE/ENV/ (OUT_ROOT/CANDIDATE/ENV/ with OUT_ROOT set: device_chunk.sh).
+# Run from the repository root, venv activated.
 set -e
 cd "$(dirname "$0")/../../.."
 candidate=${1:?usage: run.sh today|value20|value20_2048|ppo|a2c [ENV ...]}
@@ -23,7 +24,7 @@ for env in "${envs[@]}"; do
     for line in "${mujoco[@]}"; do [ "${line%% *}" = "$env" ] && threshold=(--threshold "${line##* }"); done
     args=(--env "$env" --algos "$algo" --config "$algo=$config" --seeds "${SEEDS:-3}" --first-seed "${FIRST_SEED:-0}"
         --budget "$budget" --eval-freq $((budget / 20)) --eval-episodes 10 "${threshold[@]}"
-        --out "benchmarks/results/defaults_study/$candidate/$env" --workers "${WORKERS:-1}" --no-progress)
+        --out "${OUT_ROOT:-benchmarks/results/defaults_study}/$candidate/$env" --workers "${WORKERS:-1}" --no-progress)
     echo "\$ sb3-reinforce compare ${args[*]}"
     sb3-reinforce compare "${args[@]}"
 done
