@@ -230,12 +230,12 @@ def test_config_entry_builds_and_trains(tmp_path: Path, config: str, env_id: str
 
 
 #: The verified configuration behind each zoo entry (benchmarks/configs/, run by ``sb3-reinforce compare`` on seeds
-#: 1000-1009, LunarLander-v3's on 3000-3009, Acrobot-v1's on 1010-1019; CarRacing-v3's is its pilot's, on tuning seeds
+#: 1000-1009, LunarLander-v3's on 1030-1039, Acrobot-v1's on 1010-1019; CarRacing-v3's is its pilot's, on tuning seeds
 #: 100-101 only): the entry must be that file's, key for key, or its results say nothing about it.
 VERIFIED_CONFIGS = {
     "CarRacing-v3": "carracing_pilot/b_value20.yml",
     "Acrobot-v1": "acrobot_speed2/e4_loo.yml",
-    "LunarLander-v3": "reinforce_lunarlander_value20_clip_normobs_gamma0995.yml",
+    "LunarLander-v3": "lunarlander_speed2/e4_ent001.yml",
     "LunarLanderContinuous-v3": "reinforce_llc_value20.yml",
     "Pendulum-v1": "reinforce_pendulum_gsde.yml",
     "MountainCar-v0": "reinforce_mountaincar_value20.yml",
