@@ -12,7 +12,10 @@ candidates on seeds 100-101 beside ``a_entry``'s runs (the control: the pilot's,
 the best two run on seeds 102-103 (stage 2); the pick is the better of those two over the four seeds. Nothing is
 decided while a run of the stage is short of 1M steps, unless that run cannot change the stage's two best: a config's
 score can only fall as its seeds finish, so one whose seeds so far score 10 or more below two finished configs is
-out of the two best whatever its other seeds do (its missing runs are then named and not waited for).
+out of the two best whatever its other seeds do (its missing runs are then named and not waited for). For the same
+reason the pick can be certain before the stages finish: a config finished on seeds 100-103 that at most one other
+config can still pass in stage 1, and whose lowest over the four seeds is 10 or more above every other config's lowest
+seed so far, wins stage 2 against any partner; the runs still awaited are then named and not waited for.
 """
 
 import argparse
@@ -131,12 +134,58 @@ def _waiting(stage: pd.DataFrame) -> str:
     return "; ".join(f"{row['config']} seeds {row['missing']}" for _, row in stage.iterrows() if row["missing"])
 
 
+def certain_pick(seeds: pd.DataFrame, configs: list[str]) -> str | None:
+    """
+    The config the rule picks whatever the unfinished runs give, or None. It is finished on seeds 100-103; at most one
+    other config can still rank above it in stage 1 (the others' lowest seed so far is ``TIE`` or more below its
+    stage-1 lowest), so it runs in stage 2; and every other config's lowest seed so far on seeds 100-103 is ``TIE`` or
+    more below its lowest over the four, so it wins stage 2 against any partner (a lowest score can only fall).
+    """
+    stage_1 = config_scores(seeds, configs, STAGE_1_SEEDS).set_index("config")
+    four = config_scores(seeds, configs, STAGE_1_SEEDS + STAGE_2_SEEDS).set_index("config")
+    for pick in configs:
+        if four.loc[pick, "missing"]:
+            continue
+        others = [config for config in configs if config != pick]
+        # a config with no finished seed has a NaN lowest so far, which compares False: it can still rank anywhere
+        can_pass = sum(not stage_1.loc[pick, "lowest"] - stage_1.loc[other, "lowest_so_far"] >= TIE for other in others)
+        beats_all = all(four.loc[pick, "lowest"] - four.loc[other, "lowest_so_far"] >= TIE for other in others)
+        if can_pass <= 1 and beats_all:
+            return pick
+    return None
+
+
+def _after_the_pick(pick: str, lowest: float, study: Study) -> str:
+    """What runs once ``pick`` is picked with ``lowest`` as its score."""
+    if pick == "a_entry" and not study.control_verified:
+        return "The pick is the entry: nothing more runs (its own verification at 4M: verify_carracing_4m)"
+    if lowest < 500:
+        return f"No config's score reaches 500; the pick is verified on seeds {study.verification} all the same"
+    return f"The pick is verified on seeds {study.verification}"
+
+
+def _decided_early(seeds: pd.DataFrame, study: Study, waiting: str) -> list[str]:
+    """The lines that replace a stage's 'undecided' when the pick is certain already (none when it is not)."""
+    pick = certain_pick(seeds, list(study.config_folders))
+    if pick is None:
+        return []
+    best = config_scores(seeds, [pick], STAGE_1_SEEDS + STAGE_2_SEEDS).iloc[0]
+    return [
+        f"Decided before its runs finish: the pick is {pick} (lowest {best['lowest']:.1f}, mean {best['mean']:.1f} over "
+        f"seeds 100-103), {TIE:g} or more above every other config's lowest seed so far, and a score can only fall",
+        f"Not needed (they cannot change the pick): {waiting}",
+        _after_the_pick(pick, best["lowest"], study),
+    ]
+
+
 def verdict(seeds: pd.DataFrame, study: Study) -> list[str]:
     """What ``study``'s rule says now, line by line: each stage's ranking, or what it waits for."""
     stage_1 = config_scores(seeds, list(study.config_folders), STAGE_1_SEEDS)
     out = out_of_the_best(stage_1, places=2)
     in_the_running = stage_1[~stage_1["config"].isin(out)]
     if waiting := _waiting(in_the_running):
+        if early := _decided_early(seeds, study, _waiting(stage_1)):
+            return early
         return [f"Stage 1 (seeds 100-101): undecided, waiting for {waiting}"]
     ranking = better_first(in_the_running)
     shown = " > ".join(ranking) + "".join(f" > {config} (out)" for config in out)
@@ -146,16 +195,14 @@ def verdict(seeds: pd.DataFrame, study: Study) -> list[str]:
         lines.append(f"Not needed ({TIE:g} or more below two finished configs already, and a score can only fall): {skipped}")
     stage_2 = config_scores(seeds, ranking[:2], STAGE_1_SEEDS + STAGE_2_SEEDS)
     if waiting := _waiting(stage_2):
-        return [*lines, f"Stage 2 (seeds 100-103): undecided, waiting for {waiting}"]
+        return [
+            *lines,
+            *(_decided_early(seeds, study, waiting) or [f"Stage 2 (seeds 100-103): undecided, waiting for {waiting}"]),
+        ]
     pick = better_first(stage_2)[0]
     best = stage_2.set_index("config").loc[pick]
     lines.append(f"Stage 2 (seeds 100-103): the pick is {pick} (lowest {best['lowest']:.1f}, mean {best['mean']:.1f})")
-    if pick == "a_entry" and not study.control_verified:
-        lines.append("The pick is the entry: nothing more runs (its own verification at 4M: verify_carracing_4m)")
-    elif stage_2["lowest"].max() < 500:
-        lines.append(f"No config's score reaches 500; the pick is verified on seeds {study.verification} all the same")
-    else:
-        lines.append(f"The pick is verified on seeds {study.verification}")
+    lines.append(_after_the_pick(pick, stage_2["lowest"].max(), study))
     return lines
 
 

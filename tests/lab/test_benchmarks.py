@@ -283,6 +283,48 @@ def test_carracing_tuning_rule_skips_runs_that_cannot_change_the_two_best(tmp_pa
     ]
 
 
+def test_carracing_tuning_rule_decides_the_pick_before_the_runs_finish(tmp_path: Path) -> None:
+    # Study 2's case: a_entry is finished on seeds 100-103 (lowest 397.8) and every candidate's lowest seed so far is 10
+    # or more below it, so a_entry ranks first in stage 1 and wins stage 2 against any partner whatever is still running
+    tuning = load("carracing_tuning")
+    configs = ("a_entry", "b_std005", "c_clip05", "d_e8")
+    folders = {config: [tmp_path / config] for config in configs}
+    study = tuning.Study(folders, "6010-6012 at 4M steps", control_verified=False)
+
+    def run(config: str, seed: int, scores: list[float]) -> None:
+        folder = tmp_path / config / "per_run"
+        folder.mkdir(parents=True, exist_ok=True)
+        frame = {"seed": seed, "steps": [0, 900_000, 950_000, 1_000_000][: 1 + len(scores)], "mean_return": [-90.0, *scores]}
+        pd.DataFrame(frame).to_csv(folder / f"reinforce_seed{seed}.csv", index=False)
+
+    for seed, score in zip((100, 101, 102, 103), (488.2, 635.8, 618.9, 397.8), strict=True):
+        run("a_entry", seed, [score] * 3)
+    run("b_std005", 100, [82.8] * 3)
+    run("c_clip05", 100, [312.4] * 3)
+    run("d_e8", 100, [-15.1, -26.8])  # short of 1M: it could still score anything, so nothing is certain
+    waiting = (
+        "b_std005 seeds 101 (not started); c_clip05 seeds 101 (not started); d_e8 seeds 100 (950,000 steps), 101 (not started)"
+    )
+    assert tuning.verdict(tuning.seed_scores(folders), study) == [f"Stage 1 (seeds 100-101): undecided, waiting for {waiting}"]
+    run("d_e8", 100, [-15.1, -26.8, 17.7])
+    assert tuning.certain_pick(tuning.seed_scores(folders), list(configs)) == "a_entry"
+    assert tuning.verdict(tuning.seed_scores(folders), study) == [
+        "Decided before its runs finish: the pick is a_entry (lowest 397.8, mean 535.2 over seeds 100-103), 10 or more "
+        "above every other config's lowest seed so far, and a score can only fall",
+        "Not needed (they cannot change the pick): b_std005 seeds 101 (not started); c_clip05 seeds 101 (not started); "
+        "d_e8 seeds 101 (not started)",
+        "The pick is the entry: nothing more runs (its own verification at 4M: verify_carracing_4m)",
+    ]
+    # within 10 of a_entry's lowest over the four seeds, c_clip05 could still win stage 2: nothing is certain
+    run("c_clip05", 100, [390.0] * 3)
+    assert tuning.certain_pick(tuning.seed_scores(folders), list(configs)) is None
+    # low on seeds 102-103 but ahead of a_entry on 100-101, b and c would both pass it in stage 1 and leave it out
+    for config in ("b_std005", "c_clip05"):
+        run(config, 100, [600.0] * 3)
+        run(config, 102, [100.0] * 3)
+    assert tuning.certain_pick(tuning.seed_scores(folders), list(configs)) is None
+
+
 def test_carracing_tuning_rule(tmp_path: Path) -> None:
     # The rule on made-up evaluations: lowest seed first, mean when the lowest are within 10, nothing while a run is short
     tuning = load("carracing_tuning")
