@@ -10,11 +10,17 @@ and the rule's outcome, or which runs it still waits for. Thresholds: Gymnasium'
 the lab's -200, :func:`~sb3_reinforce.lab.stats.solve_threshold`), MuJoCo: Tianshou's REINFORCE at 3M steps
 (``mujoco_thresholds.py --source "Tianshou REINFORCE"``). The suite and its seeds are read off ``queue.sh``.
 
+With ``--verification`` it tabulates the runs on fresh seeds (``verify_queue.sh``, into ``verify/``) the same way and
+reports, instead of the rule's outcome, the counts the README's rule 4 reports for the pick, PPO's defaults and today's;
+``--pick`` prints rule 2's pick (``verify_queue.sh`` reads it) or fails while the candidates' runs are unfinished.
+
     python benchmarks/defaults_table.py
+    python benchmarks/defaults_table.py --verification
 """
 
 import argparse
 import re
+import sys
 from pathlib import Path
 
 import mujoco_thresholds
@@ -113,31 +119,59 @@ def counts(per_run: pd.DataFrame, tasks: dict[str, list[int]], column: str) -> t
     return solved, int(mine["reached"].sum()), len(mine), sum(len(seeds) for seeds in tasks.values())
 
 
-def decision(per_run: pd.DataFrame, tasks: dict[str, list[int]]) -> str:
-    """The rule's outcome (README, "The rule"), or which columns it still waits for."""
+def _unfinished(per_run: pd.DataFrame, tasks: dict[str, list[int]], columns: tuple[str, ...]) -> list[str]:
+    """Each of ``columns`` with runs still to finish, as "`column` finished of expected runs"."""
     waiting = []
-    for column in (TODAY, *CANDIDATES, PPO):
+    for column in columns:
         _, _, finished, expected = counts(per_run, tasks, column)
         if finished < expected:
             waiting.append(f"`{column}` {finished} of {expected} runs")
-    if waiting:
+    return waiting
+
+
+def pick(per_run: pd.DataFrame, tasks: dict[str, list[int]]) -> str | None:
+    """
+    Step 2's pick: the candidate that solves the most tasks, then has the most runs at or above the threshold, then
+    ``value20`` (the smaller change); None while a candidate's run is unfinished.
+    """
+    if _unfinished(per_run, tasks, CANDIDATES):
+        return None
+    solved = {column: counts(per_run, tasks, column)[:2] for column in CANDIDATES}
+    return max(CANDIDATES, key=lambda column: (*solved[column], -CANDIDATES.index(column)))
+
+
+def decision(per_run: pd.DataFrame, tasks: dict[str, list[int]]) -> str:
+    """The rule's outcome (README, "The rule"), or which columns it still waits for."""
+    if waiting := _unfinished(per_run, tasks, (TODAY, *CANDIDATES, PPO)):
         return "**Not decided yet**: the rule reads every run of its columns; finished so far: " + ", ".join(waiting) + "."
+    picked = pick(per_run, tasks)
+    assert picked is not None
     solved = {column: counts(per_run, tasks, column)[:2] for column in (TODAY, *CANDIDATES, PPO)}
-    # Step 2: the most tasks solved, then the most runs at or above the threshold, then value20 (listed first)
-    pick = max(CANDIDATES, key=lambda column: (*solved[column], -CANDIDATES.index(column)))
-    tasks_pick, tasks_ppo, tasks_today = solved[pick][0], solved[PPO][0], solved[TODAY][0]
+    tasks_pick, tasks_ppo, tasks_today = solved[picked][0], solved[PPO][0], solved[TODAY][0]
     verdict = (
-        f"`{pick}` becomes the constructor's default (step 3: {tasks_pick} tasks solved, PPO's defaults {tasks_ppo}, "
+        f"`{picked}` becomes the constructor's default (step 3: {tasks_pick} tasks solved, PPO's defaults {tasks_ppo}, "
         f"today's {tasks_today})"
         if tasks_pick >= tasks_ppo and tasks_pick > tasks_today
-        else f"the defaults stay (step 3: `{pick}` solves {tasks_pick} tasks, PPO's defaults {tasks_ppo}, today's "
+        else f"the defaults stay (step 3: `{picked}` solves {tasks_pick} tasks, PPO's defaults {tasks_ppo}, today's "
         f"{tasks_today})"
     )
-    return f"**Decided**: the pick is `{pick}` (step 2); {verdict}."
+    return f"**Decided**: the pick is `{picked}` (step 2); {verdict}."
 
 
-def table(per_run: pd.DataFrame, tasks: dict[str, list[int]]) -> str:
-    """Markdown: per task each column's mean final score (seeds finished) and whether it solves; counts; decision."""
+def verification(per_run: pd.DataFrame, tasks: dict[str, list[int]], picked: str) -> str:
+    """Rule 4's report on fresh seeds: tasks solved and runs at or above the threshold of the pick, PPO and today."""
+    columns = (picked, PPO, TODAY)
+    if waiting := _unfinished(per_run, tasks, columns):
+        return "**Verification under way**: finished so far: " + ", ".join(waiting) + "."
+    reported = []
+    for column in columns:
+        solved, reached, finished, _ = counts(per_run, tasks, column)
+        reported.append(f"`{column}` {solved} tasks solved ({reached} of {finished} runs at or above the threshold)")
+    return "**On fresh seeds** (rule 4): " + ", ".join(reported) + "."
+
+
+def table(per_run: pd.DataFrame, tasks: dict[str, list[int]], outcome: str) -> str:
+    """Markdown: per task each column's mean final score (seeds finished) and whether it solves; counts; ``outcome``."""
     limits = thresholds(list(tasks))
     header = "| task (threshold) | seeds | " + " | ".join(f"`{column}`" for column in COLUMNS) + " |"
     lines = [header, "|---|---|" + "---:|" * len(COLUMNS)]
@@ -158,19 +192,36 @@ def table(per_run: pd.DataFrame, tasks: dict[str, list[int]]) -> str:
     lines.append("| tasks solved | | " + " | ".join(str(row[0]) for row in rows) + " |")
     lines.append("| runs at or above the threshold | | " + " | ".join(f"{row[1]} of {row[2]}" for row in rows) + " |")
     lines.append("| runs finished | | " + " | ".join(f"{row[2]} of {row[3]}" for row in rows) + " |")
-    return "\n".join(lines) + "\n\n" + decision(per_run, tasks) + "\n"
+    return "\n".join(lines) + "\n\n" + outcome + "\n"
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--root", type=Path, default=RESULTS, help="the study's folder (default: %(default)s)")
     parser.add_argument("--queue", type=Path, default=RESULTS / "queue.sh", help="its schedule (default: %(default)s)")
+    parser.add_argument("--verify-root", type=Path, default=RESULTS / "verify", help="default: %(default)s")
+    parser.add_argument("--verify-queue", type=Path, default=RESULTS / "verify_queue.sh", help="default: %(default)s")
+    mode = parser.add_mutually_exclusive_group()
+    mode.add_argument("--pick", action="store_true", help="print step 2's pick; fail while it is undecided")
+    mode.add_argument("--verification", action="store_true", help="tabulate the runs on fresh seeds (rule 4)")
     args = parser.parse_args(argv)
-    tasks = suite(args.queue)
-    per_run = runs(args.root, tasks)
-    per_run.to_csv(args.root / "runs.csv", index=False)
-    markdown = table(per_run, tasks)
-    (args.root / "table.md").write_text(markdown)
+    root, tasks = args.root, suite(args.queue)
+    per_run = runs(root, tasks)
+    outcome = decision(per_run, tasks)
+    if args.pick or args.verification:
+        picked = pick(per_run, tasks)
+        if picked is None:
+            sys.exit("step 2's pick is undecided: the candidates' runs are unfinished (python benchmarks/defaults_table.py)")
+        if args.pick:
+            print(picked)
+            return
+        root, tasks = args.verify_root, suite(args.verify_queue)
+        per_run = runs(root, tasks)
+        outcome = verification(per_run, tasks, picked)
+    root.mkdir(parents=True, exist_ok=True)
+    per_run.to_csv(root / "runs.csv", index=False)
+    markdown = table(per_run, tasks, outcome)
+    (root / "table.md").write_text(markdown)
     print(markdown)
 
 

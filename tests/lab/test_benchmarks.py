@@ -797,3 +797,46 @@ def test_defaults_table_applies_the_rule(tmp_path: Path) -> None:
         "**Not decided yet**" in (tmp_path / "table.md").read_text()
         and "`ppo` 4 of 5 runs" in (tmp_path / "table.md").read_text()
     )
+
+
+def test_defaults_verification_reads_the_pick_and_reports_rule_4(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # --pick prints step 2's pick (verify_queue.sh runs it), or fails while a candidate's run is unfinished;
+    # --verification tabulates the fresh seeds' runs of the pick, PPO and today with rule 4's counts
+    defaults = load("defaults_table")
+    tuning, verify = tmp_path / "tuning", tmp_path / "verify"
+    queue, verify_queue = tmp_path / "queue.sh", tmp_path / "verify_queue.sh"
+    queue.write_text(
+        "classic=(CartPole-v1)\nmujoco=(Hopper-v4)\nfor seed in 0; do\n  :\ndone\n"
+        'for candidate in today; do\n    FIRST_SEED=0 SEEDS=1 bash "$here/run.sh" "$candidate" "${mujoco[@]}"\ndone\n'
+    )
+    verify_queue.write_text(queue.read_text().replace("for seed in 0;", "for seed in 9000 9001;").replace("=0 ", "=9000 "))
+    argv = ["--root", str(tuning), "--queue", str(queue), "--verify-root", str(verify), "--verify-queue", str(verify_queue)]
+    _finished_run(tuning, "value20", "CartPole-v1", 0, 500.0)
+    _finished_run(tuning, "value20", "Hopper-v4", 0, 100.0)
+    _finished_run(tuning, "value20_2048", "CartPole-v1", 0, 500.0)
+    with pytest.raises(SystemExit, match="undecided"):
+        defaults.main([*argv, "--pick"])
+    _finished_run(tuning, "value20_2048", "Hopper-v4", 0, 400.0)  # 2 tasks against value20's 1
+    capsys.readouterr()
+    defaults.main([*argv, "--pick"])
+    assert capsys.readouterr().out == "value20_2048\n"
+
+    assert defaults.suite(verify_queue) == {"CartPole-v1": [9000, 9001], "Hopper-v4": [9000]}
+    finals = {"value20_2048": (500, 480, 400), "ppo": (500, 400, 2000), "today": (300, 500, 100)}
+    for candidate, (first, second, hopper) in finals.items():
+        _finished_run(verify, candidate, "CartPole-v1", 9000, first)
+        _finished_run(verify, candidate, "Hopper-v4", 9000, hopper)
+        if candidate != "today":
+            _finished_run(verify, candidate, "CartPole-v1", 9001, second)
+    defaults.main([*argv, "--verification"])
+    assert "**Verification under way**: finished so far: `today` 2 of 3 runs." in (verify / "table.md").read_text()
+    _finished_run(verify, "today", "CartPole-v1", 9001, 500.0)
+    defaults.main([*argv, "--verification"])
+    table = (verify / "table.md").read_text()
+    assert "| CartPole-v1 (475) | 9000, 9001 | 400.0 | | 490.0 **solved** | 450.0 | |" in table.replace("|  |", "| |")
+    assert (
+        "**On fresh seeds** (rule 4): `value20_2048` 2 tasks solved (3 of 3 runs at or above the threshold), `ppo` 1 "
+        "tasks solved (2 of 3 runs at or above the threshold), `today` 0 tasks solved (1 of 3 runs at or above the "
+        "threshold)." in table
+    )
+    assert len(pd.read_csv(verify / "runs.csv")) == 9 and not (tuning / "table.md").exists()
