@@ -12,7 +12,8 @@ the lab's -200, :func:`~sb3_reinforce.lab.stats.solve_threshold`), MuJoCo: Tians
 
 With ``--verification`` it tabulates the runs on fresh seeds (``verify_queue.sh``, into ``verify/``) the same way and
 reports, instead of the rule's outcome, the counts the README's rule 4 reports for the pick, PPO's defaults and today's;
-``--pick`` prints rule 2's pick (``verify_queue.sh`` reads it) or fails while the candidates' runs are unfinished.
+``--pick`` prints rule 2's pick (``verify_queue.sh`` reads it) or fails while the candidates' unfinished runs could
+still change it.
 
     python benchmarks/defaults_table.py
     python benchmarks/defaults_table.py --verification
@@ -129,32 +130,63 @@ def _unfinished(per_run: pd.DataFrame, tasks: dict[str, list[int]], columns: tup
     return waiting
 
 
+def bounds(per_run: pd.DataFrame, tasks: dict[str, list[int]], column: str) -> tuple[tuple[int, int], tuple[int, int]]:
+    """
+    The lowest and highest (tasks solved, runs at or above the threshold) that a column can end with: its finished
+    runs as they are, each unfinished task solved or not, each unfinished run at or above the threshold or not.
+    """
+    solved, reached, finished, expected = counts(per_run, tasks, column)
+    mine = per_run[per_run["candidate"] == column]
+    open_tasks = sum(not set(mine[mine["env_id"] == env_id]["seed"]) >= set(seeds) for env_id, seeds in tasks.items())
+    return (solved, reached), (solved + open_tasks, reached + expected - finished)
+
+
 def pick(per_run: pd.DataFrame, tasks: dict[str, list[int]]) -> str | None:
     """
     Step 2's pick: the candidate that solves the most tasks, then has the most runs at or above the threshold, then
-    ``value20`` (the smaller change); None while a candidate's run is unfinished.
+    ``value20`` (the smaller change); None while the candidates' unfinished runs could still change it (the pick is
+    known early when its lowest possible counts beat every other candidate's highest).
     """
-    if _unfinished(per_run, tasks, CANDIDATES):
-        return None
-    solved = {column: counts(per_run, tasks, column)[:2] for column in CANDIDATES}
-    return max(CANDIDATES, key=lambda column: (*solved[column], -CANDIDATES.index(column)))
+    ranges = {column: bounds(per_run, tasks, column) for column in CANDIDATES}
+    for column in CANDIDATES:
+        lowest = (*ranges[column][0], -CANDIDATES.index(column))
+        if all(lowest > (*ranges[other][1], -CANDIDATES.index(other)) for other in CANDIDATES if other != column):
+            return column
+    return None
+
+
+def _tasks_solved(low: int, high: int) -> str:
+    return str(low) if low == high else f"between {low} and {high}"
 
 
 def decision(per_run: pd.DataFrame, tasks: dict[str, list[int]]) -> str:
-    """The rule's outcome (README, "The rule"), or which columns it still waits for."""
-    if waiting := _unfinished(per_run, tasks, (TODAY, *CANDIDATES, PPO)):
-        return "**Not decided yet**: the rule reads every run of its columns; finished so far: " + ", ".join(waiting) + "."
+    """
+    The rule's outcome (README, "The rule"), or which columns it still waits for; decided before the last runs
+    finish when none of their results could change it.
+    """
+    waiting = _unfinished(per_run, tasks, (TODAY, *CANDIDATES, PPO))
     picked = pick(per_run, tasks)
-    assert picked is not None
-    solved = {column: counts(per_run, tasks, column)[:2] for column in (TODAY, *CANDIDATES, PPO)}
-    tasks_pick, tasks_ppo, tasks_today = solved[picked][0], solved[PPO][0], solved[TODAY][0]
-    verdict = (
-        f"`{picked}` becomes the constructor's default (step 3: {tasks_pick} tasks solved, PPO's defaults {tasks_ppo}, "
-        f"today's {tasks_today})"
-        if tasks_pick >= tasks_ppo and tasks_pick > tasks_today
-        else f"the defaults stay (step 3: `{picked}` solves {tasks_pick} tasks, PPO's defaults {tasks_ppo}, today's "
-        f"{tasks_today})"
-    )
+    if picked is None:
+        return "**Not decided yet**: the rule reads every run of its columns; finished so far: " + ", ".join(waiting) + "."
+    (pick_low, _), (pick_high, _) = bounds(per_run, tasks, picked)
+    (ppo_low, _), (ppo_high, _) = bounds(per_run, tasks, PPO)
+    (today_low, _), (today_high, _) = bounds(per_run, tasks, TODAY)
+    tasks_pick, tasks_ppo = _tasks_solved(pick_low, pick_high), _tasks_solved(ppo_low, ppo_high)
+    others = f"PPO's defaults {tasks_ppo}, today's {_tasks_solved(today_low, today_high)}"
+    if pick_low >= ppo_high and pick_low > today_high:
+        verdict = f"`{picked}` becomes the constructor's default (step 3: {tasks_pick} tasks solved, {others})"
+    elif pick_high < ppo_low or pick_high <= today_low:
+        verdict = f"the defaults stay (step 3: `{picked}` solves {tasks_pick} tasks, {others})"
+    else:
+        return (
+            f"**Not decided yet**: step 2's pick is `{picked}` whatever the candidates' unfinished runs give; step 3 "
+            f"({tasks_pick} tasks solved, {others}) waits for: " + ", ".join(waiting) + "."
+        )
+    if waiting:
+        return (
+            f"**Decided** before its last runs, which cannot change it: the pick is `{picked}` (step 2); {verdict}. "
+            "Still running, for the table: " + ", ".join(waiting) + "."
+        )
     return f"**Decided**: the pick is `{picked}` (step 2); {verdict}."
 
 
@@ -202,7 +234,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--verify-root", type=Path, default=RESULTS / "verify", help="default: %(default)s")
     parser.add_argument("--verify-queue", type=Path, default=RESULTS / "verify_queue.sh", help="default: %(default)s")
     mode = parser.add_mutually_exclusive_group()
-    mode.add_argument("--pick", action="store_true", help="print step 2's pick; fail while it is undecided")
+    mode.add_argument("--pick", action="store_true", help="print step 2's pick; fail while unfinished runs could change it")
     mode.add_argument("--verification", action="store_true", help="tabulate the runs on fresh seeds (rule 4)")
     args = parser.parse_args(argv)
     root, tasks = args.root, suite(args.queue)
@@ -211,7 +243,10 @@ def main(argv: list[str] | None = None) -> None:
     if args.pick or args.verification:
         picked = pick(per_run, tasks)
         if picked is None:
-            sys.exit("step 2's pick is undecided: the candidates' runs are unfinished (python benchmarks/defaults_table.py)")
+            sys.exit(
+                "step 2's pick is undecided: the candidates' unfinished runs could change it "
+                "(python benchmarks/defaults_table.py)"
+            )
         if args.pick:
             print(picked)
             return

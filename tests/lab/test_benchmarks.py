@@ -799,6 +799,58 @@ def test_defaults_table_applies_the_rule(tmp_path: Path) -> None:
     )
 
 
+def test_defaults_table_decides_before_the_last_runs_when_they_cannot_change_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # The rule as written, applied while runs are unfinished: decided once no result of theirs can change it
+    defaults = load("defaults_table")
+    queue = tmp_path / "queue.sh"
+    queue.write_text(
+        "classic=(CartPole-v1)\nmujoco=(Hopper-v4 Ant-v4)\nfor seed in 0 1; do\n  :\ndone\n"
+        'for candidate in today; do\n    FIRST_SEED=0 SEEDS=1 bash "$here/run.sh" "$candidate" "${mujoco[@]}"\ndone\n'
+    )
+    argv = ["--root", str(tmp_path), "--queue", str(queue)]
+    # value20: 2 tasks, 3 runs at the threshold; value20_2048 at best 2 tasks and 3 runs, so the tie goes to value20
+    for env_id, seed, final in [("CartPole-v1", 0, 500), ("CartPole-v1", 1, 500), ("Hopper-v4", 0, 500), ("Ant-v4", 0, 100)]:
+        _finished_run(tmp_path, "value20", env_id, seed, final)
+    _finished_run(tmp_path, "value20_2048", "CartPole-v1", 0, 500.0)
+    _finished_run(tmp_path, "value20_2048", "Hopper-v4", 0, 100.0)
+    for env_id, seed, final in [("CartPole-v1", 0, 400), ("CartPole-v1", 1, 400), ("Hopper-v4", 0, 100), ("Ant-v4", 0, 100)]:
+        _finished_run(tmp_path, "today", env_id, seed, final)
+    _finished_run(tmp_path, "ppo", "CartPole-v1", 0, 500.0)
+    _finished_run(tmp_path, "ppo", "CartPole-v1", 1, 500.0)
+    capsys.readouterr()
+    defaults.main([*argv, "--pick"])
+    assert capsys.readouterr().out == "value20\n"
+    defaults.main(argv)
+    assert (
+        "**Not decided yet**: step 2's pick is `value20` whatever the candidates' unfinished runs give; step 3 (2 tasks "
+        "solved, PPO's defaults between 1 and 3, today's 0)" in (tmp_path / "table.md").read_text()
+    )
+    # PPO misses Ant-v4: at most 2 tasks whatever its Hopper run gives, so value20 becomes the default
+    _finished_run(tmp_path, "ppo", "Ant-v4", 0, 100.0)
+    defaults.main(argv)
+    assert (
+        "**Decided** before its last runs, which cannot change it: the pick is `value20` (step 2); `value20` becomes the "
+        "constructor's default (step 3: 2 tasks solved, PPO's defaults between 1 and 2, today's 0). Still running, for "
+        "the table: `value20_2048` 2 of 4 runs, `ppo` 3 of 4 runs." in (tmp_path / "table.md").read_text()
+    )
+    # PPO solves Ant-v4 and Hopper-v4: 3 tasks against the pick's 2, whatever value20_2048's last runs give
+    _finished_run(tmp_path, "ppo", "Ant-v4", 0, 2000.0)
+    _finished_run(tmp_path, "ppo", "Hopper-v4", 0, 2000.0)
+    defaults.main(argv)
+    assert (
+        "the defaults stay (step 3: `value20` solves 2 tasks, PPO's defaults 3, today's 0). Still running, for "
+        "the table: `value20_2048` 2 of 4 runs." in (tmp_path / "table.md").read_text()
+    )
+    # Where value20_2048 could still win, nothing is decided and --pick fails
+    _finished_run(tmp_path, "value20", "Hopper-v4", 0, 100.0)
+    defaults.main(argv)
+    assert "**Not decided yet**: the rule reads every run" in (tmp_path / "table.md").read_text()
+    with pytest.raises(SystemExit, match="undecided"):
+        defaults.main([*argv, "--pick"])
+
+
 def test_defaults_verification_reads_the_pick_and_reports_rule_4(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     # --pick prints step 2's pick (verify_queue.sh runs it), or fails while a candidate's run is unfinished;
     # --verification tabulates the fresh seeds' runs of the pick, PPO and today with rule 4's counts
