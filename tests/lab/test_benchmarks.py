@@ -811,14 +811,18 @@ def test_defaults_table_decides_before_the_last_runs_when_they_cannot_change_it(
     )
     argv = ["--root", str(tmp_path), "--queue", str(queue)]
     # value20: 2 tasks, 3 runs at the threshold; value20_2048 at best 2 tasks and 3 runs, so the tie goes to value20
-    for env_id, seed, final in [("CartPole-v1", 0, 500), ("CartPole-v1", 1, 500), ("Hopper-v4", 0, 500), ("Ant-v4", 0, 100)]:
-        _finished_run(tmp_path, "value20", env_id, seed, final)
-    _finished_run(tmp_path, "value20_2048", "CartPole-v1", 0, 500.0)
-    _finished_run(tmp_path, "value20_2048", "Hopper-v4", 0, 100.0)
-    for env_id, seed, final in [("CartPole-v1", 0, 400), ("CartPole-v1", 1, 400), ("Hopper-v4", 0, 100), ("Ant-v4", 0, 100)]:
-        _finished_run(tmp_path, "today", env_id, seed, final)
-    _finished_run(tmp_path, "ppo", "CartPole-v1", 0, 500.0)
-    _finished_run(tmp_path, "ppo", "CartPole-v1", 1, 500.0)
+    # finals per run (CartPole seeds 0 and 1, Hopper, Ant), None where the run is unfinished
+    finals = {
+        "value20": (500, 500, 500, 100),
+        "value20_2048": (500, None, 100, None),
+        "today": (400, 400, 100, 100),
+        "ppo": (500, 500, None, None),
+    }
+    runs = [("CartPole-v1", 0), ("CartPole-v1", 1), ("Hopper-v4", 0), ("Ant-v4", 0)]
+    for candidate, scores in finals.items():
+        for (env_id, seed), final in zip(runs, scores, strict=True):
+            if final is not None:
+                _finished_run(tmp_path, candidate, env_id, seed, final)
     capsys.readouterr()
     defaults.main([*argv, "--pick"])
     assert capsys.readouterr().out == "value20\n"
