@@ -15,8 +15,11 @@ reports, instead of the rule's outcome, the counts the README's rule 4 reports f
 ``--pick`` prints rule 2's pick (``verify_queue.sh`` reads it) or fails while the candidates' unfinished runs could
 still change it.
 
-    python benchmarks/defaults_table.py
-    python benchmarks/defaults_table.py --verification
+``--into PAGE`` writes the same table into a markdown page between ``<!-- defaults -->`` markers (with
+``--verification``: ``<!-- defaults_verification -->``), as the results page shows it.
+
+    python benchmarks/defaults_table.py --into docs/results.md
+    python benchmarks/defaults_table.py --verification --into docs/results.md
 """
 
 import argparse
@@ -28,6 +31,7 @@ import mujoco_thresholds
 import pandas as pd
 
 from sb3_reinforce.lab.compare.folder import ComparisonFolder
+from sb3_reinforce.lab.report import write_between_markers
 from sb3_reinforce.lab.stats import solve_threshold
 
 HERE = Path(__file__).parent
@@ -40,6 +44,8 @@ COLUMNS = (TODAY, *CANDIDATES, PPO, A2C)
 MUJOCO_SOURCE = "Tianshou REINFORCE"
 #: The columns of runs.csv.
 RUN_COLUMNS = ("candidate", "env_id", "seed", "threshold", "steps", "final", "final_sampled", "reached", "train_time_s")
+#: The markers between which ``--into`` writes the tuning runs' table, and the fresh seeds' (``--verification``).
+MARKER, VERIFICATION_MARKER = "defaults", "defaults_verification"
 
 
 def _bash_array(text: str, name: str) -> list[str]:
@@ -190,6 +196,11 @@ def decision(per_run: pd.DataFrame, tasks: dict[str, list[int]]) -> str:
     return f"**Decided**: the pick is `{picked}` (step 2); {verdict}."
 
 
+def verification_columns(picked: str) -> tuple[str, ...]:
+    """The columns that run on fresh seeds (rule 4), in the table's order: today, the pick, PPO."""
+    return tuple(column for column in COLUMNS if column in (TODAY, picked, PPO))
+
+
 def verification(per_run: pd.DataFrame, tasks: dict[str, list[int]], picked: str) -> str:
     """Rule 4's report on fresh seeds: tasks solved and runs at or above the threshold of the pick, PPO and today."""
     columns = (picked, PPO, TODAY)
@@ -202,14 +213,14 @@ def verification(per_run: pd.DataFrame, tasks: dict[str, list[int]], picked: str
     return "**On fresh seeds** (rule 4): " + ", ".join(reported) + "."
 
 
-def table(per_run: pd.DataFrame, tasks: dict[str, list[int]], outcome: str) -> str:
+def table(per_run: pd.DataFrame, tasks: dict[str, list[int]], outcome: str, columns: tuple[str, ...] = COLUMNS) -> str:
     """Markdown: per task each column's mean final score (seeds finished) and whether it solves; counts; ``outcome``."""
     limits = thresholds(list(tasks))
-    header = "| task (threshold) | seeds | " + " | ".join(f"`{column}`" for column in COLUMNS) + " |"
-    lines = [header, "|---|---|" + "---:|" * len(COLUMNS)]
+    header = "| task (threshold) | seeds | " + " | ".join(f"`{column}`" for column in columns) + " |"
+    lines = [header, "|---|---|" + "---:|" * len(columns)]
     for env_id, seeds in tasks.items():
         cells = []
-        for column in COLUMNS:
+        for column in columns:
             task_runs = per_run[(per_run["candidate"] == column) & (per_run["env_id"] == env_id)]
             if task_runs.empty:
                 cells.append("")
@@ -220,7 +231,7 @@ def table(per_run: pd.DataFrame, tasks: dict[str, list[int]], outcome: str) -> s
             cells.append(f"{mean:,.1f}{mark}")
         seed_text = ", ".join(map(str, seeds))
         lines.append(f"| {env_id} ({limits[env_id]:g}) | {seed_text} | " + " | ".join(cells) + " |")
-    rows = [counts(per_run, tasks, column) for column in COLUMNS]
+    rows = [counts(per_run, tasks, column) for column in columns]
     lines.append("| tasks solved | | " + " | ".join(str(row[0]) for row in rows) + " |")
     lines.append("| runs at or above the threshold | | " + " | ".join(f"{row[1]} of {row[2]}" for row in rows) + " |")
     lines.append("| runs finished | | " + " | ".join(f"{row[2]} of {row[3]}" for row in rows) + " |")
@@ -236,10 +247,16 @@ def main(argv: list[str] | None = None) -> None:
     mode = parser.add_mutually_exclusive_group()
     mode.add_argument("--pick", action="store_true", help="print step 2's pick; fail while unfinished runs could change it")
     mode.add_argument("--verification", action="store_true", help="tabulate the runs on fresh seeds (rule 4)")
+    into = f"a markdown page to write the table into, between <!-- {MARKER} --> (or {VERIFICATION_MARKER}) markers"
+    parser.add_argument("--into", type=Path, action="append", default=[], metavar="PAGE", help=into)
     args = parser.parse_args(argv)
+    marker = VERIFICATION_MARKER if args.verification else MARKER
+    for page in args.into:  # before any writing: a page without the markers is a mistake in the command
+        if f"<!-- {marker} -->" not in page.read_text():
+            sys.exit(f"--into {page}: no <!-- {marker} --> ... <!-- /{marker} --> markers in it")
     root, tasks = args.root, suite(args.queue)
     per_run = runs(root, tasks)
-    outcome = decision(per_run, tasks)
+    outcome, columns = decision(per_run, tasks), COLUMNS
     if args.pick or args.verification:
         picked = pick(per_run, tasks)
         if picked is None:
@@ -252,11 +269,13 @@ def main(argv: list[str] | None = None) -> None:
             return
         root, tasks = args.verify_root, suite(args.verify_queue)
         per_run = runs(root, tasks)
-        outcome = verification(per_run, tasks, picked)
+        outcome, columns = verification(per_run, tasks, picked), verification_columns(picked)
     root.mkdir(parents=True, exist_ok=True)
     per_run.to_csv(root / "runs.csv", index=False)
-    markdown = table(per_run, tasks, outcome)
+    markdown = table(per_run, tasks, outcome, columns)
     (root / "table.md").write_text(markdown)
+    for page in args.into:
+        write_between_markers(page, marker, markdown)
     print(markdown)
 
 

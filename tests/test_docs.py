@@ -106,6 +106,39 @@ def test_published_table_is_the_committed_results(page: str, monkeypatch: pytest
         assert [(command.group(3), command.group(4) is not None) for command in commands] == [(None, True), ("ppo", False)]
 
 
+#: The commands that write the defaults study's tables (issue 62) into the results page
+DEFAULTS_COMMAND = r"`python benchmarks/defaults_table.py( --verification)? --into docs/results.md`"
+
+
+def test_defaults_tables_are_the_committed_results(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The results page's defaults tables (tuning seeds, fresh seeds) are what benchmarks/defaults_table.py makes of
+    # the committed runs, and the page names the command that writes each
+    import sys
+
+    text = (REPO / "docs/results.md").read_text()
+    commands = re.findall(DEFAULTS_COMMAND, " ".join(text.split()))
+    assert commands == ["", " --verification"], "the page names both commands, the tuning table's first"
+    monkeypatch.chdir(REPO)
+    monkeypatch.syspath_prepend(str(REPO / "benchmarks"))
+    sys.modules.pop("defaults_table", None)
+    import defaults_table
+
+    tasks = defaults_table.suite()
+    per_run = defaults_table.runs(defaults_table.RESULTS, tasks)
+    expected = {defaults_table.MARKER: defaults_table.table(per_run, tasks, defaults_table.decision(per_run, tasks))}
+    picked = defaults_table.pick(per_run, tasks)
+    if picked is not None:
+        verify_tasks = defaults_table.suite(defaults_table.RESULTS / "verify_queue.sh")
+        verify_runs = defaults_table.runs(defaults_table.RESULTS / "verify", verify_tasks)
+        outcome = defaults_table.verification(verify_runs, verify_tasks, picked)
+        columns = defaults_table.verification_columns(picked)
+        expected[defaults_table.VERIFICATION_MARKER] = defaults_table.table(verify_runs, verify_tasks, outcome, columns)
+    for marker, table in expected.items():
+        block = re.search(rf"<!-- {marker} -->\n(.*?)<!-- /{marker} -->", text, re.DOTALL)
+        assert block is not None, f"docs/results.md has the <!-- {marker} --> table"
+        assert block.group(1) == table
+
+
 #: The command that writes the training-time table (issue 64) into the README and the results page
 WALLCLOCK_COMMAND = r"`python benchmarks/wallclock_table.py((?: --current \S+)*)((?: --into \S+)+)`"
 

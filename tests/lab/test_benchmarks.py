@@ -889,10 +889,29 @@ def test_defaults_verification_reads_the_pick_and_reports_rule_4(tmp_path: Path,
     _finished_run(verify, "today", "CartPole-v1", 9001, 500.0)
     defaults.main([*argv, "--verification"])
     table = (verify / "table.md").read_text()
-    assert "| CartPole-v1 (475) | 9000, 9001 | 400.0 | | 490.0 **solved** | 450.0 | |" in table.replace("|  |", "| |")
+    assert "| task (threshold) | seeds | `today` | `value20_2048` | `ppo` |" in table  # the columns that ran
+    assert "| CartPole-v1 (475) | 9000, 9001 | 400.0 | 490.0 **solved** | 450.0 |" in table
     assert (
         "**On fresh seeds** (rule 4): `value20_2048` 2 tasks solved (3 of 3 runs at or above the threshold), `ppo` 1 "
         "tasks solved (2 of 3 runs at or above the threshold), `today` 0 tasks solved (1 of 3 runs at or above the "
         "threshold)." in table
     )
     assert len(pd.read_csv(verify / "runs.csv")) == 9 and not (tuning / "table.md").exists()
+
+    # --into writes each table between its own markers of a page, and refuses a page without them before any writing
+    page = tmp_path / "results.md"
+    page.write_text(
+        "a\n<!-- defaults -->\nold\n<!-- /defaults -->\nb\n<!-- defaults_verification -->\n<!-- /defaults_verification -->\n"
+    )
+    defaults.main([*argv, "--verification", "--into", str(page)])
+    defaults.main([*argv, "--into", str(page)])
+    assert page.read_text() == (
+        f"a\n<!-- defaults -->\n{(tuning / 'table.md').read_text()}<!-- /defaults -->\nb\n"
+        f"<!-- defaults_verification -->\n{(verify / 'table.md').read_text()}<!-- /defaults_verification -->\n"
+    )
+    bare = tmp_path / "bare.md"
+    bare.write_text("<!-- defaults -->\n<!-- /defaults -->\n")
+    (verify / "table.md").unlink()
+    with pytest.raises(SystemExit, match="no <!-- defaults_verification -->"):
+        defaults.main([*argv, "--verification", "--into", str(bare)])
+    assert not (verify / "table.md").exists()
