@@ -14,6 +14,8 @@ import pandas as pd
 import pytest
 import torch as th
 import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 BENCHMARKS = Path(__file__).parents[2] / "benchmarks"
 
@@ -244,6 +246,30 @@ def test_carracing_initial_actions(tmp_path: Path) -> None:
         assert float(rows["c_gsde_squash", action]["deterministic"]) > 0.5
         assert float(rows["c_gsde_squash", action]["sampled_above_0.1"]) == 1
         assert float(rows["b_gsde", action]["deterministic"]) < 0.1
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    mean=st.floats(-3.0, 3.0),
+    std=st.floats(0.01, 2.0),
+    low=st.floats(-1.0, 0.5),
+    width=st.floats(0.1, 2.0),
+)
+def test_carracing_expected_clipped_action_is_the_mean_of_clipped_samples(
+    mean: float, std: float, low: float, width: float
+) -> None:
+    # Issue 63's diagnosis plays E[clip(a)] for a ~ N(mean, std) in closed form: it matches the mean of many clipped
+    # samples, lies in the box, and is clip(mean) only as the std vanishes
+    import numpy as np
+
+    expected_clipped = load("carracing_expected_action").expected_clipped
+    bounds = np.array([low]), np.array([low + width])
+    closed = expected_clipped(np.array([mean]), np.array([std]), *bounds)[0]
+    samples = np.clip(np.random.default_rng(0).normal(mean, std, 200_000), *bounds)
+    assert abs(closed - samples.mean()) < 5 * samples.std() / np.sqrt(len(samples)) + 1e-9
+    assert low - 1e-12 <= closed <= low + width + 1e-12
+    narrow = expected_clipped(np.array([mean]), np.array([1e-6]), *bounds)[0]
+    assert narrow == pytest.approx(np.clip(mean, *bounds)[0], abs=1e-5)
 
 
 def test_carracing_tuning_rule_skips_runs_that_cannot_change_the_two_best(tmp_path: Path) -> None:
