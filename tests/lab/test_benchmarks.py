@@ -14,7 +14,7 @@ import pandas as pd
 import pytest
 import torch as th
 import yaml
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 BENCHMARKS = Path(__file__).parents[2] / "benchmarks"
@@ -255,6 +255,7 @@ def test_carracing_initial_actions(tmp_path: Path) -> None:
     low=st.floats(-1.0, 0.5),
     width=st.floats(0.1, 2.0),
 )
+@example(mean=3.0, std=0.5, low=0.0, width=0.5)  # every sample clipped: the tail of mass 3e-7 is never drawn
 def test_carracing_expected_clipped_action_is_the_mean_of_clipped_samples(
     mean: float, std: float, low: float, width: float
 ) -> None:
@@ -266,7 +267,8 @@ def test_carracing_expected_clipped_action_is_the_mean_of_clipped_samples(
     bounds = np.array([low]), np.array([low + width])
     closed = expected_clipped(np.array([mean]), np.array([std]), *bounds)[0]
     samples = np.clip(np.random.default_rng(0).normal(mean, std, 200_000), *bounds)
-    assert abs(closed - samples.mean()) < 5 * samples.std() / np.sqrt(len(samples)) + 1e-9
+    # 5 standard errors, plus what a tail too thin to be sampled can weigh (below 1e-6 at 5 standard deviations)
+    assert abs(closed - samples.mean()) < 5 * samples.std() / np.sqrt(len(samples)) + 1e-6
     assert low - 1e-12 <= closed <= low + width + 1e-12
     narrow = expected_clipped(np.array([mean]), np.array([1e-6]), *bounds)[0]
     assert narrow == pytest.approx(np.clip(mean, *bounds)[0], abs=1e-5)
