@@ -31,7 +31,7 @@ import mujoco_thresholds
 import pandas as pd
 
 from sb3_reinforce.lab.compare.folder import ComparisonFolder
-from sb3_reinforce.lab.report import write_between_markers
+from sb3_reinforce.lab.report import require_markers, write_between_markers
 from sb3_reinforce.lab.stats import solve_threshold
 
 HERE = Path(__file__).parent
@@ -251,9 +251,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--into", type=Path, action="append", default=[], metavar="PAGE", help=into)
     args = parser.parse_args(argv)
     marker = VERIFICATION_MARKER if args.verification else MARKER
-    for page in args.into:  # before any writing: a page without the markers is a mistake in the command
-        if f"<!-- {marker} -->" not in page.read_text():
-            sys.exit(f"--into {page}: no <!-- {marker} --> ... <!-- /{marker} --> markers in it")
+    require_markers(args.into, marker)
     root, tasks = args.root, suite(args.queue)
     per_run = runs(root, tasks)
     outcome, columns = decision(per_run, tasks), COLUMNS

@@ -26,7 +26,7 @@ import gymnasium as gym
 import pandas as pd
 
 from sb3_reinforce.lab.compare.folder import ComparisonFolder
-from sb3_reinforce.lab.report import write_between_markers
+from sb3_reinforce.lab.report import require_markers, write_between_markers
 from sb3_reinforce.lab.stats import first_crossing, quantile_with_inf
 
 RESULTS = Path(__file__).parent / "results" / "wallclock"
@@ -189,9 +189,7 @@ def main(argv: list[str] | None = None) -> None:
     into = f"a markdown page to write the table into, between <!-- {MARKER} --> markers (repeatable)"
     parser.add_argument("--into", type=Path, action="append", default=[], metavar="PAGE", help=into)
     args = parser.parse_args(argv)
-    for page in args.into:  # before any writing: a page without the markers is a mistake in the command
-        if f"<!-- {MARKER} -->" not in page.read_text():
-            raise SystemExit(f"--into {page}: no <!-- {MARKER} --> ... <!-- /{MARKER} --> markers in it")
+    require_markers(args.into, MARKER)
     per_run = runs(args.root)
     if per_run.empty:
         raise SystemExit(f"no finished runs under {args.root}")

@@ -28,6 +28,7 @@ __all__ = [
     "page_table",
     "published_marker",
     "render",
+    "require_markers",
     "system_differences",
     "update_readme",
     "write_between_markers",
@@ -101,6 +102,11 @@ def system_differences(folders: list[Path]) -> str | None:
     return "Note: " + "; ".join(notes) if notes else None
 
 
+def _marker_pattern(marker: str) -> re.Pattern[str]:
+    """``<!-- MARKER -->``, a newline, anything, ``<!-- /MARKER -->``: the span :func:`write_between_markers` replaces."""
+    return re.compile(rf"(<!-- {re.escape(marker)} -->\n).*?(<!-- /{re.escape(marker)} -->)", re.DOTALL)
+
+
 def write_between_markers(path: Path, marker: str, text: str) -> bool:
     """
     Replace what stands between ``<!-- MARKER -->`` and ``<!-- /MARKER -->`` in a markdown file.
@@ -111,11 +117,25 @@ def write_between_markers(path: Path, marker: str, text: str) -> bool:
     :return: Whether the markers were found (the file is left as it was otherwise)
     """
     content = path.read_text()
-    pattern = re.compile(rf"(<!-- {re.escape(marker)} -->\n).*?(<!-- /{re.escape(marker)} -->)", re.DOTALL)
-    content, count = pattern.subn(lambda m: m.group(1) + text + m.group(2), content)  # no escape processing of text
+    content, count = _marker_pattern(marker).subn(lambda m: m.group(1) + text + m.group(2), content)  # text as is
     if count:
         path.write_text(content)
     return bool(count)
+
+
+def require_markers(pages: list[Path], marker: str, option: str = "--into") -> None:
+    """
+    Exit with a message naming ``option`` and the page if a page lacks the ``MARKER`` pair, before any page is written.
+
+    A page without the markers is a mistake in the command: checking every page first leaves them all as they were.
+
+    :param pages: The markdown files the command will write into
+    :param marker: The marker's name
+    :param option: The command-line option that named the pages, for the message
+    """
+    for page in pages:
+        if not _marker_pattern(marker).search(page.read_text()):
+            raise SystemExit(f"{option} {page}: no <!-- {marker} --> ... <!-- /{marker} --> markers in it")
 
 
 def published_marker(algo: str) -> str:

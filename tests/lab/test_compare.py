@@ -39,7 +39,7 @@ from sb3_reinforce.lab.compare.figures import (
 from sb3_reinforce.lab.compare.folder import PER_RUN_DIR, RESULT_COLUMNS, ComparisonFolder, RunSpec
 from sb3_reinforce.lab.report import build_parser as build_report_parser
 from sb3_reinforce.lab.report import main as render_main
-from sb3_reinforce.lab.report import update_readme
+from sb3_reinforce.lab.report import require_markers, update_readme
 from sb3_reinforce.lab.seed.reproduction import EPISODE_COLUMNS, RewardFloor
 from sb3_reinforce.lab.seed.reproduction import build_parser as build_seed_parser
 from sb3_reinforce.lab.seed.reproduction import main as seed_main
@@ -704,6 +704,21 @@ def test_update_readme_markers(tmp_path: Path) -> None:
     readme.write_text("a\n<!-- results:x/y -->\nold\n<!-- /results:x/y -->\nb\n")
     assert update_readme(readme, {"x/y": "| new |\n", "z": "t"}) == ["x/y"]
     assert readme.read_text() == "a\n<!-- results:x/y -->\n| new |\n<!-- /results:x/y -->\nb\n"
+
+
+@pytest.mark.parametrize(
+    "second_page",
+    ["no marker\n", "<!-- t -->\nan opening marker alone\n", "<!-- /t -->\n<!-- t -->\nclosed before opened\n"],
+)
+def test_require_markers_names_the_page_without_its_pair(tmp_path: Path, second_page: str) -> None:
+    good, bad = tmp_path / "good.md", tmp_path / "bad.md"
+    good.write_text("<!-- t -->\nold\n<!-- /t -->\n")
+    bad.write_text(second_page)
+    require_markers([good], "t")  # the pair: nothing to say
+    with pytest.raises(SystemExit, match=re.escape(f"--into {bad}: no <!-- t -->")):
+        require_markers([good, bad], "t")
+    with pytest.raises(SystemExit, match=r"^--page "):
+        require_markers([bad], "t", option="--page")
 
 
 @pytest.mark.parametrize(
