@@ -753,6 +753,33 @@ def test_defaults_table_reads_the_suite_off_the_study_scripts() -> None:
     assert limits["Hopper-v4"] == 395.8  # Tianshou's REINFORCE at 3M (Spinning Up's VPG is higher), as the README says
 
 
+def test_defaults_run_skips_a_task_whose_seeds_are_all_finished(tmp_path: Path) -> None:
+    # A restarted queue passes over every finished task in seconds instead of running compare again to redraw its
+    # report; a task with any seed unfinished still goes to compare, with the seeds asked for
+    fake = tmp_path / "bin" / "sb3-reinforce"
+    fake.parent.mkdir()
+    fake.write_text(f'#!/bin/sh\necho "$@" >> {tmp_path / "calls"}\n')
+    fake.chmod(0o755)
+    out_root = tmp_path / "verify"
+    (out_root / "ppo" / "CartPole-v1" / "per_run").mkdir(parents=True)
+    (out_root / "ppo" / "CartPole-v1" / "per_run" / "ppo_seed9001.json").write_text("{}")
+    (out_root / "ppo" / "Acrobot-v1" / "per_run").mkdir(parents=True)
+    (out_root / "ppo" / "Acrobot-v1" / "per_run" / "ppo_seed9001.checkpoint.json").write_text("{}")
+    path = f"{fake.parent}:{Path(sys.executable).parent}:/usr/bin:/bin"
+    env = {"PATH": path, "OUT_ROOT": str(out_root), "FIRST_SEED": "9001", "SEEDS": "1"}
+    script = BENCHMARKS / "results" / "defaults_study" / "run.sh"
+    result = subprocess.run(["bash", str(script), "ppo", "CartPole-v1", "Acrobot-v1"], env=env, capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    assert "CartPole-v1: seeds 9001-9001 finished, skipped" in result.stdout
+    (call,) = (tmp_path / "calls").read_text().splitlines()
+    assert call.startswith("compare --env Acrobot-v1 --algos ppo") and "--seeds 1 --first-seed 9001" in call
+    result = subprocess.run(
+        ["bash", str(script), "ppo", "CartPole-v1"], env={**env, "SEEDS": "2"}, capture_output=True, text=True
+    )
+    assert "skipped" not in result.stdout  # seed 9002 is not finished
+    assert (tmp_path / "calls").read_text().splitlines()[-1].startswith("compare --env CartPole-v1")
+
+
 def _finished_run(root: Path, candidate: str, env_id: str, seed: int, final: float) -> None:
     """A finished run's files, as compare writes them, whose last deterministic evaluation scores ``final``."""
     from sb3_reinforce.lab.compare.folder import ComparisonFolder, RunSpec

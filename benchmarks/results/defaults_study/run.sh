@@ -22,9 +22,16 @@ for env in "${envs[@]}"; do
     [ "$env" = CartPole-v1 ] && budget=100000
     threshold=()
     for line in "${mujoco[@]}"; do [ "${line%% *}" = "$env" ] && threshold=(--threshold "${line##* }"); done
-    args=(--env "$env" --algos "$algo" --config "$algo=$config" --seeds "${SEEDS:-3}" --first-seed "${FIRST_SEED:-0}"
+    out=${OUT_ROOT:-benchmarks/results/defaults_study}/$candidate/$env
+    first=${FIRST_SEED:-0} seeds=${SEEDS:-3} finished=0
+    for ((seed = first; seed < first + seeds; seed++)); do [ -f "$out/per_run/${algo}_seed$seed.json" ] && ((++finished)); done
+    if [ "$finished" = "$seeds" ]; then  # compare would only redraw its report: skip it (a restart then costs seconds)
+        echo "$out: seeds $first-$((first + seeds - 1)) finished, skipped"
+        continue
+    fi
+    args=(--env "$env" --algos "$algo" --config "$algo=$config" --seeds "$seeds" --first-seed "$first"
         --budget "$budget" --eval-freq $((budget / 20)) --eval-episodes 10 "${threshold[@]}"
-        --out "${OUT_ROOT:-benchmarks/results/defaults_study}/$candidate/$env" --workers "${WORKERS:-1}" --no-progress)
+        --out "$out" --workers "${WORKERS:-1}" --no-progress)
     echo "\$ sb3-reinforce compare ${args[*]}"
     sb3-reinforce compare "${args[@]}"
 done
