@@ -970,3 +970,60 @@ def test_defaults_verification_reads_the_pick_and_reports_rule_4(tmp_path: Path,
     with pytest.raises(SystemExit, match="no <!-- defaults_verification -->"):
         defaults.main([*argv, "--verification", "--into", str(bare)])
     assert not (verify / "table.md").exists()
+
+
+def _write_evaluations(folder: Path, algo: str, seed: int, steps: list[int], returns: list[float]) -> None:
+    # one run's per_run CSV as compare writes it (the columns seed_targets reads); sampled actions score 1 more
+    (folder / "per_run").mkdir(parents=True, exist_ok=True)
+    evaluations = {"env": "Toy-v0", "algo": algo, "seed": seed, "eval_index": range(len(steps)), "steps": steps}
+    frame = pd.DataFrame({**evaluations, "mean_return": returns, "mean_return_stochastic": [r + 1 for r in returns]})
+    frame.to_csv(folder / "per_run" / f"{algo}_seed{seed}.csv", index=False)
+
+
+def test_seed_targets_reads_each_part_of_the_target(tmp_path: Path) -> None:
+    # Budget 1,000, the last 10%: (b) averages the evaluations at 900 and 1,000, not the one after the last episode
+    # (1,003), and (a) skips the untrained evaluation at step 0
+    targets = load("seed_targets")
+    steps = [0, 250, 500, 750, 900, 1000, 1003]
+    _write_evaluations(tmp_path, "reinforce", 1, steps, [700, 600, 100, 100, 500, 500, 0])  # (a) 250, (b) 500: met
+    _write_evaluations(tmp_path, "reinforce", 2, steps, [0, 100, 100, 100, 600, 399, 900])  # (b) 499.5: missed
+    _write_evaluations(tmp_path, "reinforce", 3, steps, [700, 0, 0, 0, 0, 450, 480])  # (a) never: missed
+    _write_evaluations(tmp_path, "ppo", 1, steps[:4], [0, 100, 600, 0])  # under way, (a) already at 500
+    rows = targets.seed_rows(targets.read_runs(tmp_path), 500.0, 1000, 0.1)
+    assert list(rows["algorithm"]) == ["REINFORCE"] * 3 + ["PPO"] and list(rows["seed"]) == [1, 2, 3, 1]
+    assert list(rows["(a) first evaluation >= threshold"]) == ["250", "900", "never", "500"]
+    assert list(rows["(b) mean of the last evaluations"]) == ["500.0", "499.5", "225.0", "under way"]
+    assert list(rows["target"]) == ["met", "missed", "missed", "under way"]
+    assert list(rows["best"]) == [700.0, 900.0, 700.0, 600.0]
+    assert list(rows["final"]) == [0.0, 900.0, 480.0, "under way"]
+    assert list(rows["final, sampled actions"]) == [1.0, 901.0, 481.0, "under way"]
+    lines = targets.algorithm_lines(rows)
+    # three finals, none trimmed (int(0.25 * 3) = 0): the IQM is their mean, 460.0
+    assert lines[0].startswith("- REINFORCE: the target met on 1 of 3 seeds; final IQM over 3 finished: 460.0 [")
+    assert lines[1] == "- PPO: the target met on 0 of 1 seeds (1 under way)"
+    with pytest.raises(ValueError, match="last_fraction"):
+        targets.seed_rows(targets.read_runs(tmp_path), 500.0, 1000, 0.0)
+
+
+def test_seed_targets_pages_show_the_committed_carracing_runs(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # Issue 63's per-seed rows on the results page and the folder's README are what the command writes from the
+    # committed runs; REINFORCE's (b) is what pilot_scores.py's --mean-at reads (two readings of the same CSVs)
+    targets = load("seed_targets")
+    folder = BENCHMARKS / "results" / "verify_carracing_4m"
+    text = targets.render(folder, 500.0, 4_000_000, 0.1)
+    name = targets.marker(folder)
+    for page in (BENCHMARKS.parent / "docs" / "results.md", folder / "README.md"):
+        assert f"<!-- {name} -->\n{text}<!-- /{name} -->" in page.read_text(), f"rerun seed_targets.py --into {page}"
+    window = (3_600_000, 3_700_000, 3_800_000, 3_900_000, 4_000_000)
+    scores = load("pilot_scores").run_scores(folder, 500, 800_000, mean_at=window)
+    reinforce = scores[(scores["algo"] == "reinforce") & (scores["steps"] >= 4_000_000)]
+    rows = targets.seed_rows(targets.read_runs(folder), 500.0, 4_000_000, 0.1)
+    finished = rows[(rows["algorithm"] == "REINFORCE") & (rows["target"] != "under way")]
+    assert len(finished) == 3
+    assert list(finished["(b) mean of the last evaluations"]) == [f"{v:.1f}" for v in reinforce.iloc[:, -1]]
+    # a page without the marker pair: the command names --into and the page, and writes nothing
+    page = tmp_path / "page.md"
+    page.write_text("no markers\n")
+    with pytest.raises(SystemExit, match="--into"):
+        targets.main([str(folder), "--budget", "4000000", "--into", str(page)])
+    assert page.read_text() == "no markers\n"
