@@ -1,8 +1,9 @@
 """
 A verification target, seed by seed: for each run of a comparison folder, (a) the first deterministic evaluation at
 or above the threshold and (b) the mean of the deterministic evaluations over the last fraction of the budget, met
-when at or above the threshold; with the run's best and final evaluations. Per algorithm: on how many seeds both
-hold, and the final IQM over its finished seeds with its 95% bootstrap CI (as ``compare``'s summary computes it).
+when at or above the threshold (and beside it the same mean of the sampled-action evaluations, which the target
+does not read); with the run's best and final evaluations. Per algorithm: on how many seeds both hold, and the
+final IQM over its finished seeds with its 95% bootstrap CI (as ``compare``'s summary computes it).
 CarRacing-v3's target at 4M steps (issue 63) reads the evaluations at 3.6M-4.0M:
 
     python benchmarks/seed_targets.py benchmarks/results/verify_carracing_4m --budget 4000000
@@ -64,6 +65,7 @@ def seed_rows(runs: pd.DataFrame, threshold: float, budget: int, last_fraction: 
         first = first_crossing(trained["steps"], trained["mean_return"], threshold)
         window = run[(run["steps"] >= window_start) & (run["steps"] <= budget)]
         late_mean = float(window["mean_return"].mean()) if finished else math.nan
+        late_sampled = float(window["mean_return_stochastic"].mean()) if finished else math.nan
         reached = first < math.inf
         if not finished:
             target = UNDER_WAY
@@ -76,6 +78,7 @@ def seed_rows(runs: pd.DataFrame, threshold: float, budget: int, last_fraction: 
                 "steps": f"{int(run['steps'].iloc[-1]):,}",
                 "(a) first evaluation >= threshold": f"{int(first):,}" if reached else ("never" if finished else UNDER_WAY),
                 "(b) mean of the last evaluations": f"{late_mean:.1f}" if finished else UNDER_WAY,
+                "the same, sampled actions": f"{late_sampled:.1f}" if finished else UNDER_WAY,
                 "target": target,
                 "best": round(float(run["mean_return"].max()), 1),
                 "final": round(float(run["mean_return"].iloc[-1]), 1) if finished else UNDER_WAY,

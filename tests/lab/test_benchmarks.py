@@ -993,6 +993,7 @@ def test_seed_targets_reads_each_part_of_the_target(tmp_path: Path) -> None:
     assert list(rows["algorithm"]) == ["REINFORCE"] * 3 + ["PPO"] and list(rows["seed"]) == [1, 2, 3, 1]
     assert list(rows["(a) first evaluation >= threshold"]) == ["250", "900", "never", "500"]
     assert list(rows["(b) mean of the last evaluations"]) == ["500.0", "499.5", "225.0", "under way"]
+    assert list(rows["the same, sampled actions"]) == ["501.0", "500.5", "226.0", "under way"]
     assert list(rows["target"]) == ["met", "missed", "missed", "under way"]
     assert list(rows["best"]) == [700.0, 900.0, 700.0, 600.0]
     assert list(rows["final"]) == [0.0, 900.0, 480.0, "under way"]
