@@ -25,6 +25,19 @@ from sb3_reinforce.lab.report import require_markers, write_between_markers
 from sb3_reinforce.lab.stats import bootstrap_ci, first_crossing, iqm
 
 UNDER_WAY = "under way"
+#: The per-seed table's columns, in order (:func:`seed_rows`).
+COLUMNS = (
+    "algorithm",
+    "seed",
+    "steps",
+    "(a) first evaluation >= threshold",
+    "(b) mean of the last evaluations",
+    "the same, sampled actions",
+    "target",
+    "best",
+    "final",
+    "final, sampled actions",
+)
 
 
 def marker(folder: Path) -> str:
@@ -60,31 +73,30 @@ def seed_rows(runs: pd.DataFrame, threshold: float, budget: int, last_fraction: 
     window_start = (1.0 - last_fraction) * budget
     rows = []
     for (algo, seed), run in runs.groupby(["algo", "seed"], sort=False):
-        finished = bool(run["steps"].iloc[-1] >= budget)
         trained = run[run["eval_index"] > 0]
         first = first_crossing(trained["steps"], trained["mean_return"], threshold)
-        window = run[(run["steps"] >= window_start) & (run["steps"] <= budget)]
-        late_mean = float(window["mean_return"].mean()) if finished else math.nan
-        late_sampled = float(window["mean_return_stochastic"].mean()) if finished else math.nan
-        reached = first < math.inf
-        if not finished:
-            target = UNDER_WAY
-        else:
-            target = "met" if reached and late_mean >= threshold else "missed"
-        rows.append(
-            {
-                "algorithm": str(algo).upper(),
-                "seed": int(seed),
-                "steps": f"{int(run['steps'].iloc[-1]):,}",
-                "(a) first evaluation >= threshold": f"{int(first):,}" if reached else ("never" if finished else UNDER_WAY),
-                "(b) mean of the last evaluations": f"{late_mean:.1f}" if finished else UNDER_WAY,
-                "the same, sampled actions": f"{late_sampled:.1f}" if finished else UNDER_WAY,
-                "target": target,
-                "best": round(float(run["mean_return"].max()), 1),
-                "final": round(float(run["mean_return"].iloc[-1]), 1) if finished else UNDER_WAY,
-                "final, sampled actions": round(float(run["mean_return_stochastic"].iloc[-1]), 1) if finished else UNDER_WAY,
+        row = dict.fromkeys(COLUMNS, UNDER_WAY)  # what a run under way has not reached
+        row |= {
+            "algorithm": str(algo).upper(),
+            "seed": int(seed),
+            "steps": f"{int(run['steps'].iloc[-1]):,}",
+            "best": round(float(run["mean_return"].max()), 1),
+        }
+        if first < math.inf:
+            row["(a) first evaluation >= threshold"] = f"{int(first):,}"
+        if run["steps"].iloc[-1] >= budget:  # finished
+            late = run[(run["steps"] >= window_start) & (run["steps"] <= budget)]
+            late_mean = float(late["mean_return"].mean())
+            row |= {
+                "(b) mean of the last evaluations": f"{late_mean:.1f}",
+                "the same, sampled actions": f"{late['mean_return_stochastic'].mean():.1f}",
+                "target": "met" if first < math.inf and late_mean >= threshold else "missed",
+                "final": round(float(run["mean_return"].iloc[-1]), 1),
+                "final, sampled actions": round(float(run["mean_return_stochastic"].iloc[-1]), 1),
             }
-        )
+            if first == math.inf:
+                row["(a) first evaluation >= threshold"] = "never"
+        rows.append(row)
     return pd.DataFrame(rows)
 
 
